@@ -1,0 +1,255 @@
+"""BVH reader and writer.
+
+Supports any rotation channel order per joint, position channels on any joint, End Sites,
+tabs and CRLF, and rounded ``Frame Time`` values (1/120 written as 0.008333 reads as 120 fps).
+Lengths are converted to metres; the file's unit is stored in ``motion.meta['length_unit']``
+(metres per file unit) so that :func:`write_bvh` writes the file back in its own unit.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mocapviz.errors import MocapFormatError
+from mocapviz.io._text import guess_length_unit, parse_number_lines, read_text
+from mocapviz.motion import Motion
+from mocapviz.rotations import euler_to_matrix, matrix_to_euler
+from mocapviz.skeleton import Skeleton
+
+_ROT = {"xrotation": "X", "yrotation": "Y", "zrotation": "Z"}
+_POS = {"xposition": 0, "yposition": 1, "zposition": 2}
+
+
+@dataclass
+class _Joint:
+    name: str
+    parent: int
+    offset: np.ndarray
+    channels: list[str] = field(default_factory=list)
+    line: int = 0
+
+
+def _frame_rate(frame_time: float) -> float:
+    """fps from a Frame Time that files round to 6 digits (0.008333 -> 120, 0.033333 -> 30)."""
+    fps = 1.0 / frame_time
+    nearest = round(fps)
+    return float(nearest) if nearest > 0 and abs(fps - nearest) < 1e-3 * nearest else fps
+
+
+def _parse_hierarchy(lines: list[str], path) -> tuple[list[_Joint], list[tuple[int, np.ndarray]], int]:
+    """Joints, End Sites and the index of the MOTION line. Lines are 0-based here."""
+    joints: list[_Joint] = []
+    end_sites: list[tuple[int, np.ndarray]] = []
+    stack: list[int] = []  # joint index per open brace, -2 for an End Site block
+    pending: tuple[str, str] | None = None  # ("joint", name) or ("end", "") awaiting "{"
+    current_end: int | None = None
+    i = 0
+    while i < len(lines):
+        parts = lines[i].split()
+        lineno = i + 1
+        i += 1
+        if not parts:
+            continue
+        key = parts[0].upper()
+        if key == "HIERARCHY":
+            continue
+        if key == "MOTION":
+            if stack or pending:
+                raise MocapFormatError(path, lineno, "unbalanced braces before MOTION")
+            if not joints:
+                raise MocapFormatError(path, lineno, "no ROOT joint in HIERARCHY")
+            return joints, end_sites, i - 1
+        if key in ("ROOT", "JOINT"):
+            if len(parts) < 2:
+                raise MocapFormatError(path, lineno, f"{key} without a name")
+            if (key == "ROOT") != (not stack):
+                raise MocapFormatError(path, lineno, f"{key} at the wrong nesting depth")
+            pending = ("joint", " ".join(parts[1:]))
+        elif key == "END":
+            if not stack:
+                raise MocapFormatError(path, lineno, "End Site outside a joint")
+            pending = ("end", "")
+        elif key == "{":
+            if pending is None:
+                raise MocapFormatError(path, lineno, "'{' without ROOT, JOINT or End Site")
+            if pending[0] == "joint":
+                parent = stack[-1] if stack else -1
+                if parent == -2:
+                    raise MocapFormatError(path, lineno, "joint inside an End Site")
+                joints.append(_Joint(pending[1], parent, np.zeros(3), line=lineno))
+                stack.append(len(joints) - 1)
+            else:
+                end_sites.append((stack[-1], np.zeros(3)))
+                current_end = len(end_sites) - 1
+                stack.append(-2)
+            pending = None
+        elif key == "}":
+            if not stack:
+                raise MocapFormatError(path, lineno, "unbalanced '}'")
+            stack.pop()
+        elif key == "OFFSET":
+            if len(parts) != 4 or not stack:
+                raise MocapFormatError(path, lineno, "OFFSET needs 3 numbers inside a joint")
+            try:
+                off = np.array([float(v) for v in parts[1:]])
+            except ValueError:
+                raise MocapFormatError(path, lineno, f"not a number in OFFSET: {' '.join(parts[1:])}") from None
+            if not np.all(np.isfinite(off)):
+                raise MocapFormatError(path, lineno, "OFFSET is not finite")
+            if stack[-1] == -2:
+                end_sites[current_end] = (end_sites[current_end][0], off)
+            else:
+                joints[stack[-1]].offset = off
+        elif key == "CHANNELS":
+            if not stack or stack[-1] == -2:
+                raise MocapFormatError(path, lineno, "CHANNELS outside a joint")
+            try:
+                n = int(parts[1])
+            except (IndexError, ValueError):
+                raise MocapFormatError(path, lineno, "CHANNELS needs a count") from None
+            names = [p.lower() for p in parts[2:]]
+            if n != len(names) or any(c not in _ROT and c not in _POS for c in names):
+                raise MocapFormatError(path, lineno, f"bad CHANNELS line: {' '.join(parts[1:])}")
+            rot = [c for c in names if c in _ROT]
+            if len(rot) not in (0, 3) or len(set(rot)) != len(rot):
+                raise MocapFormatError(path, lineno, "a joint needs all three rotation channels or none")
+            joints[stack[-1]].channels = names
+        else:
+            raise MocapFormatError(path, lineno, f"unexpected {parts[0]!r} in HIERARCHY")
+    raise MocapFormatError(path, len(lines), "no MOTION section (truncated file?)")
+
+
+def _header_value(line: str, key: str, lineno: int, path, cast):
+    head, _, value = line.partition(":")
+    if head.strip().lower() != key.lower():
+        raise MocapFormatError(path, lineno, f"expected '{key}:'")
+    try:
+        out = cast(value.strip())
+    except ValueError:
+        raise MocapFormatError(path, lineno, f"bad {key} value {value.strip()!r}") from None
+    if not out > 0:
+        raise MocapFormatError(path, lineno, f"{key} must be positive")
+    return out
+
+
+def read_bvh(path: str | Path, length_unit: float | None = None, text: str | None = None) -> Motion:
+    """Read a BVH file into a :class:`Motion` (metres, file's own axes).
+
+    length_unit: metres per file unit; ``None`` guesses among m, cm, mm, inch and the CMU
+    ASF unit by the skeleton's height (the CMU BVH files come out in the CMU unit).
+    """
+    text = read_text(path) if text is None else text
+    lines = text.split("\n")
+    joints, ends, motion_line = _parse_hierarchy(lines, path)
+    if motion_line + 2 >= len(lines):
+        raise MocapFormatError(path, len(lines), "MOTION section without Frames and Frame Time")
+    n_frames = _header_value(lines[motion_line + 1], "Frames", motion_line + 2, path, int)
+    frame_time = _header_value(lines[motion_line + 2], "Frame Time", motion_line + 3, path, float)
+    block = "\n".join(lines[motion_line + 3:])
+    n_channels = sum(len(j.channels) for j in joints)
+    values = parse_number_lines(block, n_channels, motion_line + 4, path, n_lines=n_frames)
+
+    n = len(joints)
+    names = tuple(j.name for j in joints)
+    if len(set(names)) != n:
+        raise MocapFormatError(path, None, "duplicate joint names")
+    rotations = np.broadcast_to(np.eye(3), (n_frames, n, 3, 3)).copy()
+    translations = {}
+    col = 0
+    orders = []
+    for k, joint in enumerate(joints):
+        chans = joint.channels
+        block_values = values[:, col:col + len(chans)]
+        col += len(chans)
+        rot_idx = [i for i, c in enumerate(chans) if c in _ROT]
+        order = "".join(_ROT[chans[i]] for i in rot_idx)
+        orders.append(order or "ZYX")
+        if rot_idx:
+            rotations[:, k] = euler_to_matrix(block_values[:, rot_idx], order)
+        pos_idx = [i for i, c in enumerate(chans) if c in _POS]
+        if pos_idx:
+            trans = np.tile(joint.offset, (n_frames, 1))
+            for i in pos_idx:
+                trans[:, _POS[chans[i]]] = block_values[:, i]
+            translations[k] = trans
+
+    offsets = np.array([j.offset for j in joints])
+    parents = np.array([j.parent for j in joints])
+    skeleton_units = Skeleton(names, parents, offsets, tuple((j, tuple(o)) for j, o in ends))
+    unit = guess_length_unit(skeleton_units.standing_height()) if length_unit is None else length_unit
+    root = translations.pop(0, np.tile(offsets[0], (n_frames, 1))) * unit
+    # Our skeleton is rigid: position channels on non-root joints are kept for writing back.
+    skeleton = skeleton_units.scaled(unit)
+    skeleton.offsets[0] = 0.0  # the root's place is root_positions
+    meta = {"source": str(path), "format": "bvh", "length_unit": unit, "frame_time": frame_time,
+            "channels": [j.channels for j in joints], "root_offset": offsets[0] * unit,
+            "joint_translations": {k: v * unit for k, v in translations.items()}}
+    return Motion(skeleton, rotations, root, _frame_rate(frame_time), name=Path(str(path)).stem, meta=meta)
+
+
+def _fmt(x: float) -> str:
+    s = f"{x:.6f}".rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def write_bvh(motion: Motion, path: str | Path | None = None, length_unit: float | None = None,
+              precision: int = 6) -> str:
+    """Write ``motion`` as BVH text (and to ``path`` if given); returns the text.
+
+    Channel layouts come from ``motion.meta['channels']`` when the motion was read from BVH,
+    else 6 channels on the root and ``Zrotation Yrotation Xrotation`` elsewhere.
+    """
+    sk = motion.skeleton
+    unit = motion.meta.get("length_unit", 1.0) if length_unit is None else length_unit
+    channels = motion.meta.get("channels") or [
+        (["xposition", "yposition", "zposition"] if j == 0 else []) + ["zrotation", "yrotation", "xrotation"]
+        for j in range(sk.n_joints)]
+    root_offset = np.asarray(motion.meta.get("root_offset", np.zeros(3)))
+    joint_trans = motion.meta.get("joint_translations", {})
+    label = {c: c[0].upper() + c[1:] for c in list(_ROT) + list(_POS)}
+    out = io.StringIO()
+    out.write("HIERARCHY\n")
+    ends_of = {}
+    for j, off in sk.end_sites:
+        ends_of.setdefault(j, []).append(off)
+
+    def emit(j: int, depth: int):
+        pad = "\t" * depth
+        kind = "ROOT" if j == 0 else "JOINT"
+        off = (root_offset if j == 0 else sk.offsets[j]) / unit
+        out.write(f"{pad}{kind} {sk.names[j]}\n{pad}{{\n")
+        out.write(f"{pad}\tOFFSET {' '.join(_fmt(v) for v in off)}\n")
+        chans = channels[j]
+        if chans:
+            out.write(f"{pad}\tCHANNELS {len(chans)} {' '.join(label[c] for c in chans)}\n")
+        for c in sk.children(j):
+            emit(c, depth + 1)
+        for off in ends_of.get(j, []):
+            out.write(f"{pad}\tEnd Site\n{pad}\t{{\n{pad}\t\tOFFSET "
+                      f"{' '.join(_fmt(v / unit) for v in off)}\n{pad}\t}}\n")
+        out.write(f"{pad}}}\n")
+
+    emit(0, 0)
+    columns = []
+    for j, chans in enumerate(channels):
+        rot = [c for c in chans if c in _ROT]
+        euler = matrix_to_euler(motion.rotations[:, j], "".join(_ROT[c] for c in rot)) if rot else None
+        trans = motion.root_positions if j == 0 else joint_trans.get(j)
+        if trans is None:
+            trans = np.tile(sk.offsets[j], (motion.n_frames, 1))
+        for c in chans:
+            columns.append(euler[:, rot.index(c)] if c in _ROT else trans[:, _POS[c]] / unit)
+    frame_time = motion.meta.get("frame_time")
+    if frame_time is None or abs(1.0 / frame_time - motion.fps) > 1e-3 * motion.fps:
+        frame_time = 1.0 / motion.fps
+    out.write(f"MOTION\nFrames: {motion.n_frames}\nFrame Time: {frame_time:.6f}\n")
+    data = np.stack(columns, axis=1) if columns else np.zeros((motion.n_frames, 0))
+    np.savetxt(out, data, fmt=f"%.{precision}f", delimiter=" ")
+    text = out.getvalue()
+    if path is not None:
+        Path(path).write_text(text)
+    return text

@@ -1,0 +1,181 @@
+"""Skeleton: joint names, parents and rest offsets (metres, Y up), plus topology maps."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# The 31-joint VICON tree of CMU and HDM05, in the names of the CMU BVH conversion (Hahne),
+# and the ASF bone that drives each joint (the joint sits where that bone starts).
+VICON_BVH_TO_ASF = {
+    "Hips": "root",
+    "LHipJoint": "lhipjoint", "LeftUpLeg": "lfemur", "LeftLeg": "ltibia",
+    "LeftFoot": "lfoot", "LeftToeBase": "ltoes",
+    "RHipJoint": "rhipjoint", "RightUpLeg": "rfemur", "RightLeg": "rtibia",
+    "RightFoot": "rfoot", "RightToeBase": "rtoes",
+    "LowerBack": "lowerback", "Spine": "upperback", "Spine1": "thorax",
+    "Neck": "lowerneck", "Neck1": "upperneck", "Head": "head",
+    "LeftShoulder": "lclavicle", "LeftArm": "lhumerus", "LeftForeArm": "lradius",
+    "LeftHand": "lwrist", "LeftFingerBase": "lhand", "LeftHandIndex1": "lfingers",
+    "LThumb": "lthumb",
+    "RightShoulder": "rclavicle", "RightArm": "rhumerus", "RightForeArm": "rradius",
+    "RightHand": "rwrist", "RightFingerBase": "rhand", "RightHandIndex1": "rfingers",
+    "RThumb": "rthumb",
+}
+ASF_TO_VICON_BVH = {v: k for k, v in VICON_BVH_TO_ASF.items()}
+
+# The 25 joints CCNet models: the VICON tree without hands, fingers and thumbs.
+VICON_HAND_JOINTS = (
+    "LeftFingerBase", "LeftHandIndex1", "LThumb",
+    "RightFingerBase", "RightHandIndex1", "RThumb",
+)
+CCNET_25_JOINTS = tuple(n for n in VICON_BVH_TO_ASF if n not in VICON_HAND_JOINTS)
+
+
+def left_right_partner(name: str) -> str:
+    """The mirror joint's name (itself for centre joints), for VICON, BVH and H3.6M names."""
+    for a, b in (("Left", "Right"), ("left", "right"), ("L", "R"), ("l", "r")):
+        if name.startswith(a) and not name.startswith(b):
+            return b + name[len(a):]
+        if name.startswith(b):
+            return a + name[len(b):]
+    return name
+
+
+@dataclass(frozen=True, eq=False)
+class Skeleton:
+    """A joint tree in topological order (``parents[j] < j``; the root has parent -1).
+
+    ``offsets[j]`` is joint j's position in its parent's frame when all rotations are
+    identity (the rest pose), in metres with Y up. ``end_sites`` are extra leaf points
+    (joint index, offset) kept for drawing and for writing BVH back.
+    """
+
+    names: tuple[str, ...]
+    parents: np.ndarray
+    offsets: np.ndarray
+    end_sites: tuple[tuple[int, tuple[float, float, float]], ...] = field(default=())
+
+    def __post_init__(self):
+        parents = np.asarray(self.parents, dtype=np.int64)
+        offsets = np.asarray(self.offsets, dtype=np.float64)
+        object.__setattr__(self, "names", tuple(self.names))
+        object.__setattr__(self, "parents", parents)
+        object.__setattr__(self, "offsets", offsets)
+        if offsets.shape != (len(self.names), 3) or parents.shape != (len(self.names),):
+            raise ValueError("names, parents and offsets must have one entry per joint")
+        if parents[0] != -1 or np.any(parents[1:] >= np.arange(1, len(parents))):
+            raise ValueError("joints must be in topological order with the root first")
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.names)
+
+    def index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"no joint named {name!r}") from None
+
+    def children(self, joint: int) -> list[int]:
+        return [int(j) for j in np.flatnonzero(self.parents == joint)]
+
+    def bone_lengths(self) -> np.ndarray:
+        """Length of the bone from each joint's parent to the joint (0 for the root)."""
+        return np.linalg.norm(self.offsets, axis=-1)
+
+    def rest_positions(self) -> np.ndarray:
+        """Joint positions (J, 3) with every rotation identity and the root at the origin."""
+        pos = np.zeros_like(self.offsets)
+        for j in range(1, self.n_joints):
+            pos[j] = pos[self.parents[j]] + self.offsets[j]
+        return pos
+
+    def end_site_positions(self) -> np.ndarray:
+        rest = self.rest_positions()
+        return np.array([rest[j] + np.asarray(off) for j, off in self.end_sites]).reshape(-1, 3)
+
+    def chain(self, joint: int) -> list[int]:
+        """Joints from the root down to ``joint`` inclusive."""
+        out = [joint]
+        while self.parents[out[-1]] >= 0:
+            out.append(int(self.parents[out[-1]]))
+        return out[::-1]
+
+    def renamed(self, mapping: dict[str, str]) -> "Skeleton":
+        return Skeleton(tuple(mapping.get(n, n) for n in self.names), self.parents,
+                        self.offsets, self.end_sites)
+
+    def scaled(self, factor: float) -> "Skeleton":
+        ends = tuple((j, tuple(float(v) * factor for v in off)) for j, off in self.end_sites)
+        return Skeleton(self.names, self.parents, self.offsets * factor, ends)
+
+    def keep_joints(self, names) -> tuple["Skeleton", np.ndarray]:
+        """Sub-skeleton of the named joints, and their indices in this skeleton.
+
+        Dropped joints must form whole subtrees (e.g. hands and fingers), so that no kept
+        joint changes position: FK of the sub-skeleton equals FK of the full one.
+        """
+        keep = sorted(self.index(n) for n in names)
+        keep_set = set(keep)
+        for j in keep:
+            p = self.parents[j]
+            if p >= 0 and p not in keep_set:
+                raise ValueError(f"cannot drop {self.names[p]!r}: its child {self.names[j]!r} is kept")
+        remap = {old: new for new, old in enumerate(keep)}
+        parents = np.array([-1 if self.parents[j] < 0 else remap[int(self.parents[j])] for j in keep])
+        ends = [(remap[j], off) for j, off in self.end_sites if j in keep_set]
+        for j in range(self.n_joints):  # a kept joint that lost all its children gets an end site
+            if j in keep_set and self.children(j) and not any(c in keep_set for c in self.children(j)):
+                ends.append((remap[j], tuple(self.offsets[self.children(j)[0]])))
+        sub = Skeleton(tuple(self.names[j] for j in keep), parents, self.offsets[keep], tuple(ends))
+        return sub, np.array(keep)
+
+    def mirror_map(self) -> np.ndarray:
+        """Index of each joint's left/right partner (itself for centre joints)."""
+        partner = []
+        for n in self.names:
+            other = left_right_partner(n)
+            partner.append(self.names.index(other) if other in self.names else self.names.index(n))
+        return np.array(partner)
+
+    def standing_height(self) -> float:
+        """Estimated standing height in metres: straightened leg plus trunk, head and feet.
+
+        The rest pose of VICON skeletons splays the legs by ~20 degrees, so the rest-pose
+        bounding box underestimates height; summing bone lengths along the vertical chains
+        (root -> head end, hip -> ankle) plus the ankle's height above the toe does not.
+        """
+        rest = self.rest_positions()
+        ends = self.end_site_positions()
+        top_candidates = [(j, rest[j][1]) for j in range(self.n_joints)]
+        for (j, _), p in zip(self.end_sites, ends):
+            top_candidates.append((j, p[1]))
+        top_joint = max(top_candidates, key=lambda c: c[1])[0]
+        trunk = sum(self.bone_lengths()[self.chain(top_joint)])
+        head_end = [np.linalg.norm(off) for j, off in self.end_sites if j == top_joint]
+        trunk += max(head_end, default=0.0)
+        low = int(np.argmin(rest[:, 1]))
+        chain = self.chain(low)
+        # leg bones hang down from the hip: take lengths of bones with a downward component,
+        # except the lowest (foot->toe) bone, which lies mostly forward: use its drop only.
+        leg = 0.0
+        for a, b in zip(chain[:-2], chain[1:-1]):
+            d = self.offsets[b]
+            if d[1] < 0:
+                leg += np.linalg.norm(d)
+        leg += -min(self.offsets[chain[-1]][1], 0.0)
+        return float(trunk + leg)
+
+    def configuration(self) -> np.ndarray:
+        """CCNet's skeleton configuration c^s: root height, then root-relative rest joints.
+
+        Root height is the root's height above the lowest rest-pose point (the rest pose of
+        the file, all rotations identity); the other 3(J-1) values are rest joint positions
+        relative to the root.
+        """
+        rest = self.rest_positions()
+        ends = self.end_site_positions()
+        lowest = min(rest[:, 1].min(), ends[:, 1].min() if len(ends) else np.inf)
+        return np.concatenate([[rest[0, 1] - lowest], (rest[1:] - rest[0]).ravel()])
