@@ -1,0 +1,38 @@
+# Two commands for a newcomer: `make demo` (build data, run the notebooks, write figures/)
+# and `make test` (unit tests plus every notebook in quick mode). Both set up .venv first.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+export VTK_DEFAULT_OPENGL_WINDOW ?= vtkEGLRenderWindow
+export PYVISTA_OFF_SCREEN ?= true
+export MPLBACKEND ?= Agg
+
+.PHONY: setup demo test test-unit test-notebooks bench clean
+
+$(VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	# torch first, pinned to the CPU wheel, so the package's torch range is already met
+	$(PY) -m pip install --quiet torch==2.13.0
+	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m ipykernel install --user --name python3 >/dev/null
+	touch $@
+
+setup: $(VENV)/.installed
+
+demo: setup
+	$(PY) -m data_prep build
+	$(PY) -m mocapviz.notebooks run --all --full
+
+test: setup
+	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q --nbmake --nbmake-timeout=1800 notebooks/
+
+test-unit: setup
+	$(PY) -m pytest -q tests
+
+bench: setup
+	$(PY) benchmarks/bench_io.py
+
+clean:
+	rm -rf $(VENV) cache figures/*.png
