@@ -15,7 +15,7 @@ $(VENV)/.installed: pyproject.toml
 	# torch first, pinned to the CPU wheel, so the package's torch range is already met
 	$(PY) -m pip install --quiet torch==2.13.0
 	$(PY) -m pip install --quiet -e '.[dev]'
-	$(PY) -m ipykernel install --user --name python3 >/dev/null
+	$(PY) -m ipykernel install --sys-prefix --name python3 >/dev/null
 	touch $@
 
 setup: $(VENV)/.installed
