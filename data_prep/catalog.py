@@ -29,16 +29,14 @@ import re
 import tempfile
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from data_prep.sources import REPO_ROOT, SOURCES, find_data_dir
-from mocapviz.io._text import LENGTH_UNITS
-from mocapviz.io.asfamc import read_amc, read_asf
-from mocapviz.io.bvh import read_bvh
-from mocapviz.io.h36m import read_h36m
-from mocapviz.motion import Motion
-from mocapviz.skeleton import ASF_TO_VICON_BVH
+
+if TYPE_CHECKING:
+    from mocapviz.motion import Motion
 
 COLUMNS = ["source", "subject", "clip", "motion_type", "path", "skeleton_path", "fps", "frames",
            "duration_s", "first_frame", "description", "segment", "trainable", "split"]
@@ -163,6 +161,7 @@ def _write_atomic_pickle(df: pd.DataFrame, path: Path) -> None:
     os.close(fd)
     try:
         df.to_pickle(tmp)
+        os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -173,9 +172,16 @@ def _prune(cache_dir: Path, keep: Path, n_keep: int = 8) -> None:
     """Drop all but the ``n_keep`` newest catalog caches (other checkouts or data folders may
     share the folder, so a few are kept)."""
     old = sorted((p for p in cache_dir.glob("catalog-*.pkl") if p != keep),
-                 key=lambda p: p.stat().st_mtime, reverse=True)
+                 key=_safe_mtime, reverse=True)
     for p in old[n_keep - 1:]:
         p.unlink(missing_ok=True)
+
+
+def _safe_mtime(p: Path) -> float:
+    try:
+        return p.stat().st_mtime
+    except OSError:  # removed meanwhile by another process
+        return 0.0
 
 
 def build_catalog(data_dir: str | Path | None = None, cache: bool = True,
@@ -258,6 +264,13 @@ def load_motion(row) -> Motion:
     HDM05 and CMU skeletons come out with the same 31 joint names (the CMU BVH names), so
     that the topology maps of :mod:`mocapviz.skeleton` apply to both.
     """
+    # imported here so that scanning the catalog (python -m data_prep catalog) needs no torch
+    from mocapviz.io._text import LENGTH_UNITS
+    from mocapviz.io.asfamc import read_amc, read_asf
+    from mocapviz.io.bvh import read_bvh
+    from mocapviz.io.h36m import read_h36m
+    from mocapviz.skeleton import ASF_TO_VICON_BVH
+
     row = dict(row)
     if row["source"] == "hdm05":
         asf = _ASF_CACHE.get(row["skeleton_path"])

@@ -18,14 +18,21 @@ class DataNotFoundError(FileNotFoundError):
 
 
 def candidate_dirs(explicit: str | Path | None = None) -> list[Path]:
-    out = []
-    if explicit is not None:
-        out.append(Path(explicit))
-    if os.environ.get("MOCAPVIZ_DATA_DIR"):
-        out.append(Path(os.environ["MOCAPVIZ_DATA_DIR"]))
-    out.append(REPO_ROOT.parent / "shared" / "data")
-    out.append(REPO_ROOT / "data" / "raw")
-    return out
+    return [d for _, d in _labelled_candidates(explicit) if d is not None]
+
+
+def _labelled_candidates(explicit) -> list[tuple[str, Path | None]]:
+    env = os.environ.get("MOCAPVIZ_DATA_DIR")
+    return [("the path you passed", Path(explicit) if explicit is not None else None),
+            ("$MOCAPVIZ_DATA_DIR", Path(env) if env else None),
+            ("../shared/data beside the checkout", REPO_ROOT.parent / "shared" / "data"),
+            ("data/raw in the checkout", REPO_ROOT / "data" / "raw")]
+
+
+def search_order(explicit: str | Path | None = None) -> str:
+    """The search order as text, for error messages (unset candidates say so)."""
+    return "; ".join(f"{i}. {label}: {d if d is not None else '(not set)'}"
+                     for i, (label, d) in enumerate(_labelled_candidates(explicit), 1))
 
 
 def find_data_dir(explicit: str | Path | None = None, source: str | None = None) -> Path:
@@ -34,12 +41,13 @@ def find_data_dir(explicit: str | Path | None = None, source: str | None = None)
     An explicit path that does not exist is an error rather than silently skipped.
     """
     if explicit is not None and not Path(explicit).is_dir():
-        raise DataNotFoundError(f"data folder {explicit} does not exist")
+        raise DataNotFoundError(f"data folder {explicit} does not exist (pass an existing folder, "
+                                "or none to search $MOCAPVIZ_DATA_DIR, ../shared/data, data/raw)")
     wanted = [source] if source else list(SOURCES)
     for d in candidate_dirs(explicit):
         if any((d / s).is_dir() for s in wanted):
             return d
-    tried = ", ".join(str(d) for d in candidate_dirs(explicit))
     raise DataNotFoundError(
-        f"no motion data ({'/'.join(wanted)}) found in: {tried}. Set MOCAPVIZ_DATA_DIR, pass a "
-        "path, or run `python -m data_prep download`.")
+        f"no motion data ({'/'.join(wanted)} folders) found. Searched, in order: "
+        f"{search_order(explicit)}. Set MOCAPVIZ_DATA_DIR, pass a path, or run "
+        "`python -m data_prep download`.")

@@ -1,0 +1,95 @@
+"""``python -m data_prep {catalog,build,download}``: see ``--help`` of each subcommand."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from data_prep.sources import SOURCES, DataNotFoundError
+
+
+def _catalog(args) -> int:
+    import pandas as pd
+
+    from data_prep.catalog import CACHE_DIR, build_catalog, summary_table
+    cat = build_catalog(args.data_dir, cache=not args.no_cache)
+    table = summary_table(cat)
+    with pd.option_context("display.width", 200, "display.max_columns", 60, "display.max_rows", 200):
+        for source, sub in table.groupby(level="source", sort=False):
+            sub = sub.droplevel("source")
+            types = [t for t in dict.fromkeys(sub.columns.get_level_values(0))
+                     if t == "total" or sub[(t, "clips")].sum() > 0]
+            cells = pd.DataFrame({t: [f"{c}/{f}/{s:.1f}s" if c else "-" for c, f, s in
+                                      zip(sub[(t, "clips")], sub[(t, "frames")], sub[(t, "seconds")])]
+                                  for t in types}, index=sub.index)
+            print(f"\n{source}: clips/frames/seconds per subject and motion type")
+            print(cells.T.to_string())
+    n_bad = int((~cat.trainable).sum())
+    print(f"\n{len(cat)} clips, {cat.frames.sum()} frames, {cat.duration_s.sum() / 60:.1f} min; "
+          f"{n_bad} too short for training windows (trainable = False). Data: {cat.attrs['data_dir']}")
+    out = Path(args.csv) if args.csv else CACHE_DIR / "catalog.csv"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    cat.to_csv(out, index=False)
+    print(f"catalog written to {out}")
+    return 0
+
+
+def _build(args) -> int:
+    from data_prep.build import load_plugins, run_builds
+    if args.list:
+        for name, t in load_plugins().items():
+            print(f"{name:12s} {'(default) ' if t.default else ''}{t.help}")
+        return 0
+    run_builds(args.targets, data_dir=args.data_dir, quick=args.quick)
+    return 0
+
+
+def _download(args) -> int:
+    from data_prep.download import download
+    done = download(args.source or None, args.dest, mirror=args.mirror,
+                    accept_license=args.accept_license, force=args.force)
+    for source, paths in done.items():
+        print(f"{source}: {len(paths)} files in {Path(args.dest) / source}")
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    from data_prep.download import DEFAULT_DEST
+    p = argparse.ArgumentParser(prog="python -m data_prep", description=__doc__)
+    sub = p.add_subparsers(dest="command", required=True)
+
+    c = sub.add_parser("catalog", help="print a summary of the data and write cache/catalog.csv")
+    c.add_argument("--data-dir", help="data folder (default: the search order of data_prep.sources)")
+    c.add_argument("--csv", help="where to write the catalog (default cache/catalog.csv)")
+    c.add_argument("--no-cache", action="store_true", help="rescan the files, ignore the cache")
+    c.set_defaults(func=_catalog)
+
+    b = sub.add_parser("build", help="build datasets (default: every default target, e.g. catalog)")
+    b.add_argument("targets", nargs="*", help="build targets by name (see --list)")
+    b.add_argument("--data-dir")
+    b.add_argument("--quick", action="store_true", help="small builds for tests and quick mode")
+    b.add_argument("--list", action="store_true", help="list the build targets")
+    b.set_defaults(func=_build)
+
+    d = sub.add_parser("download", help="download the motion data (see data_prep/download.py)")
+    d.add_argument("--source", action="append", choices=SOURCES,
+                   help="source to fetch (repeatable; default: all whose license needs no acceptance)")
+    d.add_argument("--dest", default=str(DEFAULT_DEST), help="destination folder (default data/raw)")
+    d.add_argument("--mirror", help="base URL of a copy of the reference data folder (exact copies)")
+    d.add_argument("--accept-license", action="store_true",
+                   help="accept the academic-only license of Human3.6M (required to fetch h36m)")
+    d.add_argument("--force", action="store_true", help="download again even if files exist")
+    d.set_defaults(func=_download)
+    return p
+
+
+def main(argv=None) -> int:
+    from data_prep.download import DownloadError
+    args = parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (DataNotFoundError, DownloadError, KeyError) as e:
+        msg = e.args[0] if isinstance(e, KeyError) and e.args else e
+        print(f"error: {msg}", file=sys.stderr)
+        return 2
