@@ -1,0 +1,1 @@
+"""Feature extraction: CCNet frame vectors and control signals."""
