@@ -217,4 +217,4 @@ def test_missing_file_on_server_names_it(server, tmp_path):
     base, root, _, _ = server
     with pytest.raises(DownloadError, match=r"07_01\.bvh: HTTP 404"):
         download_file(f"{base}/{CLIP}", tmp_path / "07_01.bvh", BY_DEST[CLIP].sha256, progress=False)
-    assert list(tmp_path.iterdir()) == []
+    assert list(tmp_path.glob("07_01*")) == []
