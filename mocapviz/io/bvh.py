@@ -9,6 +9,7 @@ Lengths are converted to metres; the file's unit is stored in ``motion.meta['len
 from __future__ import annotations
 
 import io
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -123,6 +124,19 @@ def _parse_hierarchy(lines: list[str], path) -> tuple[list[_Joint], list[tuple[i
     raise MocapFormatError(path, len(lines), "no MOTION section (truncated file?)")
 
 
+_MOTION_RE = re.compile(r"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
+_FRAME_TIME_RE = re.compile(r"^[ \t]*Frame Time[^\n]*(\n|$)", re.MULTILINE | re.IGNORECASE)
+
+
+def _motion_header_end(text: str) -> int:
+    """Offset just past the "Frame Time" line that follows MOTION (or len(text) if absent)."""
+    m = _MOTION_RE.search(text)
+    if m is None:
+        return len(text)
+    ft = _FRAME_TIME_RE.search(text, m.end())
+    return len(text) if ft is None else ft.end()
+
+
 def _header_value(line: str, key: str, lineno: int, path, cast):
     head, _, value = line.partition(":")
     if head.strip().lower() != key.lower():
@@ -143,39 +157,44 @@ def read_bvh(path: str | Path, length_unit: float | None = None, text: str | Non
     ASF unit by the skeleton's height (the CMU BVH files come out in the CMU unit).
     """
     text = read_text(path) if text is None else text
-    lines = text.split("\n")
+    # Split off the header (up to "Frame Time") without splitting the frames into lines.
+    head_end = _motion_header_end(text)
+    lines = text[:head_end].split("\n")
     joints, ends, motion_line = _parse_hierarchy(lines, path)
     if motion_line + 2 >= len(lines):
         raise MocapFormatError(path, len(lines), "MOTION section without Frames and Frame Time")
     n_frames = _header_value(lines[motion_line + 1], "Frames", motion_line + 2, path, int)
     frame_time = _header_value(lines[motion_line + 2], "Frame Time", motion_line + 3, path, float)
-    block = "\n".join(lines[motion_line + 3:])
+    block = "\n".join(lines[motion_line + 3:]) + text[head_end:]
     n_channels = sum(len(j.channels) for j in joints)
     values = parse_number_lines(block, n_channels, motion_line + 4, path, n_lines=n_frames)
 
     n = len(joints)
     names = tuple(j.name for j in joints)
     if len(set(names)) != n:
-        raise MocapFormatError(path, None, "duplicate joint names")
+        dup = next(j for k, j in enumerate(joints) if j.name in names[:k])
+        raise MocapFormatError(path, dup.line, f"duplicate joint name {dup.name!r}")
     rotations = np.broadcast_to(np.eye(3), (n_frames, n, 3, 3)).copy()
     translations = {}
     col = 0
-    orders = []
+    by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
     for k, joint in enumerate(joints):
         chans = joint.channels
-        block_values = values[:, col:col + len(chans)]
-        col += len(chans)
-        rot_idx = [i for i, c in enumerate(chans) if c in _ROT]
-        order = "".join(_ROT[chans[i]] for i in rot_idx)
-        orders.append(order or "ZYX")
-        if rot_idx:
-            rotations[:, k] = euler_to_matrix(block_values[:, rot_idx], order)
-        pos_idx = [i for i, c in enumerate(chans) if c in _POS]
-        if pos_idx:
+        rot_cols = [col + i for i, c in enumerate(chans) if c in _ROT]
+        if rot_cols:
+            order = "".join(_ROT[c] for c in chans if c in _ROT)
+            by_order.setdefault(order, ([], []))
+            by_order[order][0].append(k)
+            by_order[order][1].append(rot_cols)
+        pos = [(i, c) for i, c in enumerate(chans) if c in _POS]
+        if pos:
             trans = np.tile(joint.offset, (n_frames, 1))
-            for i in pos_idx:
-                trans[:, _POS[chans[i]]] = block_values[:, i]
+            for i, c in pos:
+                trans[:, _POS[c]] = values[:, col + i]
             translations[k] = trans
+        col += len(chans)
+    for order, (idx, cols) in by_order.items():  # one batched conversion per Euler order
+        rotations[:, idx] = euler_to_matrix(values[:, cols], order)
 
     offsets = np.array([j.offset for j in joints])
     parents = np.array([j.parent for j in joints])

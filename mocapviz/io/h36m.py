@@ -54,7 +54,7 @@ def h36m_skeleton() -> Skeleton:
 def read_h36m(path: str | Path, text: str | None = None) -> Motion:
     """Read one ``S<k>/<action>_<sub>.txt`` file into a 50 fps Motion (root fixed)."""
     text = read_text(path) if text is None else text
-    values = parse_number_lines(text.replace(",", " "), 99, 1, path)
+    values = parse_number_lines(text, 99, 1, path, sep=",")
     if len(values) == 0:
         raise MocapFormatError(path, 1, "no frames")
     expmap = values[:, 3:].reshape(-1, 32, 3)
