@@ -1,0 +1,288 @@
+"""pyvista scenes: skeleton line-ups, clips with ground and root track, gif/mp4, stills.
+
+Headless machines: importing this module sets ``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow``
+(if unset and there is no display) before pyvista loads, and renders off screen, so nobody
+needs an X server. Geometry comes from :mod:`mocapviz.viz.geometry`; this file only draws.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+
+def _headless() -> bool:
+    return sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+if _headless():  # must happen before VTK creates its first render window
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+
+import imageio.v2 as imageio  # noqa: E402
+import numpy as np  # noqa: E402
+import pyvista as pv  # noqa: E402
+from tqdm.auto import tqdm  # noqa: E402
+
+from mocapviz.motion import Motion  # noqa: E402
+from mocapviz.viz import geometry as geo  # noqa: E402
+
+if _headless():
+    pv.OFF_SCREEN = True
+
+WINDOW_SIZE = (800, 450)
+BACKGROUND = "white"
+GROUND_COLOR = "#e6e6e6"
+GROUND_LINES = "#c8c8c8"
+TRACK_COLOR = "#1f77b4"
+
+
+# ---------------------------------------------------------------- notebook backend
+def _in_ci() -> bool:
+    return any(os.environ.get(k) for k in ("CI", "GITHUB_ACTIONS", "GITLAB_CI", "PAPERMILL_EXECUTION"))
+
+
+def _trame_available() -> bool:
+    try:
+        import trame  # noqa: F401
+        import trame_vtk  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def choose_notebook_backend(quick: bool = True) -> str:
+    """``static`` (PNGs embedded in the notebook) or ``trame`` (interactive, JupyterLab).
+
+    ``MOCAPVIZ_PYVISTA_BACKEND`` overrides. Otherwise static in quick mode, in CI and when
+    trame is not installed; trame when a person runs the full notebook.
+    """
+    forced = os.environ.get("MOCAPVIZ_PYVISTA_BACKEND")
+    if forced:
+        return forced
+    if quick or _in_ci() or not _trame_available():
+        return "static"
+    return "trame"
+
+
+def set_notebook_backend(quick: bool = True) -> str:
+    """Set pyvista's Jupyter backend (see :func:`choose_notebook_backend`) and return it."""
+    backend = choose_notebook_backend(quick)
+    pv.set_jupyter_backend(backend)
+    return backend
+
+
+# ---------------------------------------------------------------- building blocks
+def _plotter(window_size=WINDOW_SIZE, aa: str = "ssaa") -> pv.Plotter:
+    p = pv.Plotter(off_screen=pv.OFF_SCREEN or _headless(), window_size=list(window_size))
+    p.set_background(BACKGROUND)
+    p.enable_anti_aliasing(aa)
+    return p
+
+
+def skeleton_mesh(segments: np.ndarray, radius: float = 0.018, joint_radius: float | None = None) -> pv.PolyData:
+    """Tubes for bones and spheres for joints from segments (S, 2, 3); one PolyData."""
+    segs = geo.nonzero_segments(np.asarray(segments).reshape(-1, 2, 3))
+    joint_radius = radius * 1.6 if joint_radius is None else joint_radius
+    n = len(segs)
+    points = segs.reshape(-1, 3)
+    lines = np.column_stack([np.full(n, 2), np.arange(0, 2 * n, 2), np.arange(1, 2 * n, 2)]).ravel()
+    bones = pv.PolyData(points, lines=lines).tube(radius=radius, n_sides=10, capping=True)
+    joints = np.unique(np.round(points, 6), axis=0)
+    balls = pv.PolyData(joints).glyph(geom=pv.Sphere(radius=joint_radius, theta_resolution=10,
+                                                     phi_resolution=10), scale=False, orient=False)
+    return bones.merge(balls)
+
+
+def add_ground(p: pv.Plotter, center, size: float | tuple[float, float], height: float = 0.0,
+               cell: float = 0.5) -> None:
+    """A grey ground plane at ``height`` with grid lines every ``cell`` metres."""
+    sx, sz = (size, size) if np.isscalar(size) else size
+    nx, nz = max(1, int(round(sx / cell))), max(1, int(round(sz / cell)))
+    # with direction +Y, pyvista's i axis runs along Z and j along X
+    plane = pv.Plane(center=(center[0], height - 1e-3, center[2]), direction=(0, 1, 0),
+                     i_size=nz * cell, j_size=nx * cell, i_resolution=nz, j_resolution=nx)
+    p.add_mesh(plane, color=GROUND_COLOR, show_edges=True, edge_color=GROUND_LINES, lighting=False)
+
+
+def _look(p: pv.Plotter, focal, view_dir, distance: float, elevation_deg: float = 12.0):
+    """Camera at ``distance`` from ``focal``, looking along horizontal ``view_dir``, Y up."""
+    view_dir = np.asarray(view_dir, dtype=np.float64)
+    view_dir = view_dir / np.linalg.norm(view_dir)
+    el = np.deg2rad(elevation_deg)
+    back = -view_dir * np.cos(el) + geo.UP * np.sin(el)
+    p.camera.focal_point = tuple(focal)
+    p.camera.position = tuple(np.asarray(focal) + back * distance)
+    p.camera.up = (0.0, 1.0, 0.0)
+    p.camera.view_angle = 30.0
+    p.renderer.ResetCameraClippingRange()  # else a moved camera clips the scene away
+
+
+def _fit_distance(width: float, height: float, window_size, view_angle: float = 30.0, margin=1.1) -> float:
+    """Camera distance so that a width x height box fills the window (perspective)."""
+    half_v = np.deg2rad(view_angle) / 2
+    aspect = window_size[0] / window_size[1]
+    half_h = np.arctan(np.tan(half_v) * aspect)
+    return margin * max(height / 2 / np.tan(half_v), width / 2 / np.tan(half_h))
+
+
+def save_screenshot(p: pv.Plotter, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    p.screenshot(str(path))
+    return path
+
+
+# ---------------------------------------------------------------- skeleton line-up
+def skeleton_lineup(skeletons: dict, colors: dict | None = None, heights: dict | None = None,
+                    arm_drop_deg: float = 75.0, gap: float = 0.3, width_px: int = 1600,
+                    title: str | None = None) -> pv.Plotter:
+    """Every skeleton side by side in a standing pose, coloured, with its height written above.
+
+    ``skeletons``: name -> Skeleton, drawn left to right in that order. ``heights``: name ->
+    metres to print (default :meth:`Skeleton.standing_height`). Returns an unshown plotter.
+    """
+    names = list(skeletons)
+    poses = {n: geo.standing_pose(skeletons[n], arm_drop_deg) for n in names}
+    offsets = geo.lineup_offsets([geo.pose_width(poses[n]) for n in names], gap)
+    heights = heights or {n: skeletons[n].standing_height() for n in names}
+    colors = colors or {n: "#4c72b0" for n in names}
+    span = offsets[-1] - offsets[0] + 1.0
+    tallest = max(geo.highest_point(poses[n])[0] for n in names)
+    h = tallest + 0.55  # room for the two-line labels
+    window_size = (width_px, int(np.clip(width_px * (h + 0.4) / span, 340, 900)))
+    p = _plotter(window_size)
+    tops, labels = [], []
+    for n, x in zip(names, offsets):
+        pose = poses[n]
+        centre_x = np.mean(geo.all_segments(pose)[..., 0])
+        pose.root_positions[:, 0] += x - centre_x
+        p.add_mesh(skeleton_mesh(geo.all_segments(pose)[0], radius=0.016), color=colors[n],
+                   smooth_shading=True, specular=0.3)
+        tops.append([x, geo.highest_point(pose)[0] + 0.1, 0.0])
+        labels.append(f"{n}\n{heights[n]:.2f} m")
+    add_ground(p, (0, 0, 2.5), (span + 4.0, 6.0), cell=0.25)  # reaches towards the camera
+    p.add_point_labels(np.array(tops), labels, font_size=16, text_color="black", shape_opacity=0.0,
+                       show_points=False, always_visible=True, justification_horizontal="center")
+    if title:
+        p.add_text(title, position="upper_left", font_size=12, color="black")
+    _look(p, (0.0, h / 2 - 0.15, 0.0), (0, 0, -1), _fit_distance(span, h, window_size, margin=1.05), 8.0)
+    return p
+
+
+# ---------------------------------------------------------------- clips
+class ClipScene:
+    """A clip on a ground plane with its root track; call :meth:`frame` to pose it."""
+
+    def __init__(self, motion: Motion, color: str = "#4c72b0", window_size=WINDOW_SIZE,
+                 follow: bool = False, show_track: bool = True, label: str | None = None):
+        self.motion = motion
+        self.segments = geo.all_segments(motion)  # (F, S, 2, 3)
+        self.floor = geo.floor_height(motion)
+        self.color = color
+        self.follow = follow
+        self.window_size = window_size
+        pts = self.segments.reshape(-1, 3)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        self.center = (lo + hi) / 2
+        travel = geo.travel_direction(motion)
+        self.view_dir = np.cross(geo.UP, travel)  # look across the main direction of travel
+        self.view_dir = -self.view_dir if self.view_dir[2] > 0 else self.view_dir  # from +Z side
+        extent_h = float(np.abs((hi - lo)[[0, 2]] @ np.abs(travel[[0, 2]]))) if not follow else 1.6
+        self.height = hi[1] - self.floor
+        self.p = _plotter(window_size)
+        ground = max(hi[0] - lo[0], hi[2] - lo[2]) + 10.0
+        add_ground(self.p, self.center, ground, self.floor)
+        if show_track and len(motion.root_positions) > 1:
+            track = geo.ground_track(motion, self.floor + 2e-3)
+            self.p.add_mesh(pv.lines_from_points(track), color=TRACK_COLOR, line_width=4, lighting=False)
+        if label:
+            self.p.add_text(label, position="upper_left", font_size=11, color="black")
+        self.actor = None
+        self._extent = max(extent_h, 1.2) + 0.6
+        if not follow:
+            self._aim(self.center)
+
+    def _aim(self, focal):
+        focal = np.array([focal[0], self.floor + self.height * 0.4, focal[2]])
+        d = _fit_distance(self._extent, self.height + 0.3, self.window_size, margin=1.0)
+        _look(self.p, focal, self.view_dir, d, elevation_deg=15.0)
+
+    def frame(self, i: int) -> pv.Plotter:
+        mesh = skeleton_mesh(self.segments[i])  # tubes and spheres carry their own normals
+        if self.actor is None:
+            self.actor = self.p.add_mesh(mesh, color=self.color, specular=0.3, reset_camera=False)
+        else:
+            self.actor.mapper.dataset.copy_from(mesh)
+        if self.follow:
+            self._aim(self.motion.root_positions[i])
+        return self.p
+
+    def image(self, i: int) -> np.ndarray:
+        self.frame(i)
+        self.p.render()
+        return self.p.screenshot(return_img=True)
+
+    def close(self):
+        self.p.close()
+
+
+def _frame_indices(motion: Motion, fps: float | None, max_frames: int | None) -> np.ndarray:
+    step = 1 if not fps else max(1, int(round(motion.fps / fps)))
+    idx = np.arange(0, motion.n_frames, step)
+    if max_frames is not None and len(idx) > max_frames:
+        idx = idx[:max_frames]
+    return idx
+
+
+def render_clip(motion: Motion, paths, fps: float = 30.0, max_frames: int | None = None,
+                color: str = "#4c72b0", window_size=WINDOW_SIZE, label: str | None = None,
+                progress: bool = True) -> list[Path]:
+    """Render ``motion`` at ``fps`` to each of ``paths`` (.gif and/or .mp4); returns the paths.
+
+    Frames are taken every ``round(motion.fps / fps)`` source frames, at most ``max_frames``.
+    """
+    paths = [Path(x) for x in ([paths] if isinstance(paths, (str, Path)) else paths)]
+    idx = _frame_indices(motion, fps, max_frames)
+    real_fps = motion.fps / (idx[1] - idx[0]) if len(idx) > 1 else fps
+    scene = ClipScene(motion, color=color, window_size=window_size, label=label or motion.name)
+    frames = [scene.image(int(i)) for i in tqdm(idx, desc=f"render {motion.name}", disable=not progress,
+                                                 leave=False)]
+    scene.close()
+    for path in paths:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.suffix == ".gif":
+            imageio.mimsave(path, frames, duration=1000.0 / real_fps, loop=0)
+        elif path.suffix == ".mp4":
+            imageio.mimsave(path, frames, fps=real_fps, macro_block_size=1, codec="libx264",
+                            quality=7, pixelformat="yuv420p")
+        else:
+            raise ValueError(f"{path}: only .gif and .mp4 are written")
+    return paths
+
+
+def frame_strip(motion: Motion, path: str | Path | None = None, n: int = 6, color: str = "#4c72b0",
+                panel_size=(220, 400)) -> np.ndarray:
+    """``n`` evenly spaced frames side by side (camera following the root), as one image.
+
+    Each panel keeps the same orientation and ground, so the strip reads like film; the
+    time of each frame is written in its panel. Saves a PNG if ``path`` is given.
+    """
+    idx = np.linspace(0, motion.n_frames - 1, n).round().astype(int)
+    scene = ClipScene(motion, color=color, window_size=panel_size, follow=True, show_track=True)
+    panels = []
+    for i in idx:
+        scene.frame(int(i))
+        text = scene.p.add_text(f"t = {i / motion.fps:.2f} s", position="upper_left", font_size=9,
+                                color="black", name="time")
+        scene.p.render()
+        panels.append(scene.p.screenshot(return_img=True))
+        scene.p.remove_actor(text)
+    scene.close()
+    sep = np.full((panel_size[1], 3, 3), 255, dtype=np.uint8)
+    strip = np.concatenate([x for pnl in panels for x in (pnl, sep)][:-1], axis=1)
+    if path is not None:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        imageio.imwrite(path, strip)
+    return strip
