@@ -7,8 +7,9 @@ A target is a function ``fn(data_dir, quick) -> str`` (a one-line report) regist
     @register_build("ccnet", help="CCNet training windows")
     def build_ccnet(data_dir=None, quick=False): ...
 
-Modules named in :data:`PLUGIN_MODULES` are imported (when they exist) so that their targets
-register themselves; ``build`` without targets runs every target with ``default=True``.
+Every ``data_prep/*_dataset.py`` module (e.g. ``data_prep.ccnet_dataset``) and the modules named
+in :data:`PLUGIN_MODULES` are imported so that their targets register themselves; ``build``
+without targets runs every target with ``default=True``, catalog first.
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ import time
 from dataclasses import dataclass
 from typing import Callable
 
-# Add your module here (e.g. "data_prep.ccnet"); a module that does not exist yet is skipped.
-PLUGIN_MODULES = ("data_prep.ccnet", "data_prep.body4d")
+# Extra modules that register targets (``*_dataset`` modules are found on their own); a module
+# that does not exist is skipped.
+PLUGIN_MODULES: tuple[str, ...] = ()
 
 
 @dataclass
@@ -43,7 +45,12 @@ def register_build(name: str, help: str = "", default: bool = True):
 
 
 def load_plugins() -> dict[str, Target]:
-    for mod in PLUGIN_MODULES:
+    import pkgutil
+
+    import data_prep
+    found = [f"data_prep.{m.name}" for m in pkgutil.iter_modules(data_prep.__path__)
+             if m.name.endswith("_dataset")]
+    for mod in sorted(found) + list(PLUGIN_MODULES):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as e:
