@@ -69,7 +69,8 @@ def build_catalog_target(data_dir=None, quick=False) -> str:
 
 
 def run_builds(names=(), data_dir=None, quick=False, echo=print) -> None:
-    targets = load_plugins()
+    # importing the plugins can be slow (torch): skip it when only built-in targets are asked for
+    targets = BUILDERS if names and all(n in BUILDERS for n in names) else load_plugins()
     unknown = [n for n in names if n not in targets]
     if unknown:
         raise KeyError(f"unknown build target(s) {', '.join(unknown)}; known: {', '.join(targets)}")
