@@ -5,6 +5,8 @@ Pure numpy, no rendering, so that every number a picture shows can be tested. Me
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from mocapviz.kinematics import forward_kinematics
@@ -128,6 +130,38 @@ def lineup_offsets(widths, gap: float = 0.25) -> np.ndarray:
     right_edges = np.cumsum(widths + gap) - gap
     centres = right_edges - widths / 2
     return centres - (right_edges[-1] / 2 if len(widths) else 0.0)
+
+
+@dataclass
+class LineupEntry:
+    """One body of a line-up: its standing pose (already shifted to x), label and label spot."""
+
+    name: str
+    pose: Motion
+    x: float
+    height: float
+    label: str
+    label_at: np.ndarray
+
+
+def lineup(skeletons: dict, heights: dict | None = None, arm_drop_deg: float = 75.0,
+           gap: float = 0.3) -> list[LineupEntry]:
+    """Standing poses side by side along X (left to right in dict order), feet at y = 0.
+
+    ``heights`` (name -> metres) defaults to :meth:`Skeleton.standing_height`; each label
+    reads ``"<name>\\n<height> m"`` and sits 10 cm above the body's highest point.
+    """
+    names = list(skeletons)
+    poses = [standing_pose(skeletons[n], arm_drop_deg) for n in names]
+    xs = lineup_offsets([pose_width(p) for p in poses], gap)
+    out = []
+    for n, pose, x in zip(names, poses, xs):
+        h = float(skeletons[n].standing_height() if heights is None else heights[n])
+        seg_x = all_segments(pose)[..., 0]
+        pose.root_positions[:, 0] += x - (seg_x.min() + seg_x.max()) / 2  # centre its extent on x
+        top = np.array([x, highest_point(pose)[0] + 0.1, 0.0])
+        out.append(LineupEntry(n, pose, float(x), h, f"{n}\n{h:.2f} m", top))
+    return out
 
 
 def pose_width(motion: Motion) -> float:

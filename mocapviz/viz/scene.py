@@ -143,31 +143,23 @@ def skeleton_lineup(skeletons: dict, colors: dict | None = None, heights: dict |
     ``skeletons``: name -> Skeleton, drawn left to right in that order. ``heights``: name ->
     metres to print (default :meth:`Skeleton.standing_height`). Returns an unshown plotter.
     """
-    names = list(skeletons)
-    poses = {n: geo.standing_pose(skeletons[n], arm_drop_deg) for n in names}
-    offsets = geo.lineup_offsets([geo.pose_width(poses[n]) for n in names], gap)
-    heights = heights or {n: skeletons[n].standing_height() for n in names}
-    colors = colors or {n: "#4c72b0" for n in names}
-    span = offsets[-1] - offsets[0] + 1.0
-    tallest = max(geo.highest_point(poses[n])[0] for n in names)
-    h = tallest + 0.55  # room for the two-line labels
+    entries = geo.lineup(skeletons, heights, arm_drop_deg, gap)
+    colors = colors or {}
+    span = entries[-1].x - entries[0].x + 1.0
+    h = max(e.label_at[1] for e in entries) + 0.45  # room for the two-line labels
     window_size = (width_px, int(np.clip(width_px * (h + 0.4) / span, 340, 900)))
     p = _plotter(window_size)
-    tops, labels = [], []
-    for n, x in zip(names, offsets):
-        pose = poses[n]
-        centre_x = np.mean(geo.all_segments(pose)[..., 0])
-        pose.root_positions[:, 0] += x - centre_x
-        p.add_mesh(skeleton_mesh(geo.all_segments(pose)[0], radius=0.016), color=colors[n],
-                   smooth_shading=True, specular=0.3)
-        tops.append([x, geo.highest_point(pose)[0] + 0.1, 0.0])
-        labels.append(f"{n}\n{heights[n]:.2f} m")
+    for e in entries:
+        p.add_mesh(skeleton_mesh(geo.all_segments(e.pose)[0], radius=0.016),
+                   color=colors.get(e.name, "#4c72b0"), smooth_shading=True, specular=0.3)
     add_ground(p, (0, 0, 2.5), (span + 4.0, 6.0), cell=0.25)  # reaches towards the camera
-    p.add_point_labels(np.array(tops), labels, font_size=16, text_color="black", shape_opacity=0.0,
-                       show_points=False, always_visible=True, justification_horizontal="center")
+    p.add_point_labels(np.array([e.label_at for e in entries]), [e.label for e in entries], font_size=16,
+                       text_color="black", shape_opacity=0.0, show_points=False, always_visible=True,
+                       justification_horizontal="center")
     if title:
         p.add_text(title, position="upper_left", font_size=12, color="black")
     _look(p, (0.0, h / 2 - 0.15, 0.0), (0, 0, -1), _fit_distance(span, h, window_size, margin=1.05), 8.0)
+    pv.set_new_attribute(p, "lineup", entries)  # what was drawn, for captions and tests
     return p
 
 
