@@ -44,13 +44,16 @@ def _wxyz_to_matrix(w, x, y, z) -> np.ndarray:
     return out
 
 
-def euler_to_matrix(angles_deg: np.ndarray, order: str) -> np.ndarray:
+def euler_to_matrix(angles_deg: np.ndarray, order: str, axes: np.ndarray | None = None) -> np.ndarray:
     """Angles (..., 3) in degrees, applied as R = R_order[0] @ R_order[1] @ R_order[2].
 
     ``order`` is intrinsic (BVH channel order, scipy's upper-case sequences; proper Euler
-    orders like "ZXZ" work too). Plain numpy through unit quaternions, batched over every
-    leading axis: scipy's ``from_euler`` costs ~1 ms a call, which dominated reading files
-    with one call per joint; scipy is the reference in tests/test_motion_core.py.
+    orders like "ZXZ" work too). With ``axes`` (broadcasting against ``angles[..., 0]``,
+    shape (..., 3, 3)) returns ``axes @ R @ axes.T``: the same rotation expressed in the
+    frame ``axes`` (ASF bone axes), computed by rotating the quaternion's vector part.
+    Plain numpy, batched over every leading axis: scipy's ``from_euler`` costs ~1 ms a
+    call, which dominated reading files with one call per joint; scipy is the reference in
+    tests/test_motion_core.py.
     """
     angles = np.asarray(angles_deg, dtype=np.float64)
     order = order.upper()
@@ -64,7 +67,13 @@ def euler_to_matrix(angles_deg: np.ndarray, order: str) -> np.ndarray:
         q = [c[..., i], zero, zero, zero]
         q[1 + "XYZ".index(axis)] = s[..., i]
         quats.append(q)
-    return _wxyz_to_matrix(*_quat_mul(_quat_mul(quats[0], quats[1]), quats[2]))
+    w, x, y, z = _quat_mul(_quat_mul(quats[0], quats[1]), quats[2])
+    if axes is not None:
+        a = np.asarray(axes, dtype=np.float64)
+        x, y, z = (a[..., 0, 0] * x + a[..., 0, 1] * y + a[..., 0, 2] * z,
+                   a[..., 1, 0] * x + a[..., 1, 1] * y + a[..., 1, 2] * z,
+                   a[..., 2, 0] * x + a[..., 2, 1] * y + a[..., 2, 2] * z)
+    return _wxyz_to_matrix(w, x, y, z)
 
 
 def matrix_to_euler(mats: np.ndarray, order: str) -> np.ndarray:

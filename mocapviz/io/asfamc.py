@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapviz.errors import MocapFormatError
-from mocapviz.io._text import read_text
+from mocapviz.io._text import fast_number_table, read_text
 from mocapviz.motion import Motion
 from mocapviz.rotations import euler_to_matrix
 from mocapviz.skeleton import Skeleton
@@ -48,6 +48,7 @@ class AsfSkeleton:
     angle_in_degrees: bool
     root_order: list[str]
     path: str | None = None
+    _axis_cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def joint_order(self) -> list[str]:
         order, stack = [], ["root"]
@@ -58,6 +59,12 @@ class AsfSkeleton:
         return order
 
     def axis_matrix(self, name: str) -> np.ndarray:
+        """The bone's local frame C (world-from-bone at rest), from ``axis`` and its order."""
+        if name not in self._axis_cache:
+            self._axis_cache[name] = self._axis_matrix(name)
+        return self._axis_cache[name]
+
+    def _axis_matrix(self, name: str) -> np.ndarray:
         bone = self.bones[name]
         angles = bone.axis if self.angle_in_degrees else np.degrees(bone.axis)
         return _acclaim_euler(angles[None], bone.axis_order)[0]
@@ -188,64 +195,106 @@ def _dof_rotation(values_deg: np.ndarray, dofs: list[str]) -> np.ndarray:
 
 
 def _parse_amc_frames(text: str, path, bone_dofs: dict[str, int]):
-    """Per-bone value arrays (F, n_dof) from AMC text; fast reshape when the layout repeats."""
-    lines = text.split("\n")
+    """Per-bone value arrays (F, n_dof) from AMC text.
+
+    Fast path when every frame repeats the first frame's layout (bone lines in the same
+    order), checked and blanked out with vectorised byte comparisons, then each frame is
+    joined into one line of numbers that :func:`fast_number_table` parses in C. Anything else (a bad token, an unknown joint,
+    another order, truncation, comments) falls back to the line-by-line parse, which
+    names the offending line.
+    """
+    lines = text.split("\n", 200)  # enough to find the header and the first frame
     start = 0
-    while start < len(lines) and (not lines[start].strip() or lines[start].lstrip()[0] in "#:"):
+    while start < len(lines) - 1 and (not lines[start].strip() or lines[start].lstrip()[0] in "#:"):
         start += 1
-    body = "\n".join(lines[start:])
-    tokens = body.split()
-    # Layout of the first frame: frame number, then (bone, values...) repeated.
-    layout, k = [], 1
-    while k < len(tokens) and not tokens[k].isdigit():
-        name = tokens[k]
-        n = bone_dofs.get(name)
-        if n is None:
+    offset = sum(len(line) + 1 for line in lines[:start])
+    values = _parse_amc_fast(text[offset:], lines[start:], bone_dofs)
+    if values is not None:
+        return values
+    return _parse_amc_slow(text.split("\n"), start, path, bone_dofs)
+
+
+def _parse_amc_fast(body: str, first_lines: list[str], bone_dofs: dict[str, int]):
+    if not first_lines or not first_lines[0].strip().isdigit():
+        return None
+    layout = []
+    for line in first_lines[1:]:
+        parts = line.split()
+        if not parts or parts[0].isdigit():
             break
-        layout.append((name, n))
-        k += 1 + n
-    per_frame = 1 + sum(1 + n for _, n in layout)
-    if layout and len(tokens) % per_frame == 0:
-        grid = np.array(tokens, dtype=object).reshape(-1, per_frame)
-        name_cols = np.cumsum([1] + [1 + n for _, n in layout[:-1]])
-        names_ok = all(np.all(grid[:, c] == name) for c, (name, _) in zip(name_cols, layout))
-        frame_ok = all(t.isdigit() for t in grid[:, 0])
-        if names_ok and frame_ok:
-            try:
-                values = {name: grid[:, c + 1:c + 1 + n].astype(np.float64)
-                          for c, (name, n) in zip(name_cols, layout)}
-            except ValueError:
-                values = None
-            if values is not None and all(np.all(np.isfinite(v)) for v in values.values()):
-                return values, grid.shape[0]
-    return _parse_amc_slow(lines, start, path, bone_dofs)
+        n = bone_dofs.get(parts[0])
+        if n is None or n == 0 or len(parts) != n + 1 or parts[0] in dict(layout):
+            return None
+        layout.append((parts[0], n))
+    if not layout:
+        return None
+    try:
+        data = body.encode("ascii").rstrip()
+    except UnicodeEncodeError:
+        return None
+    b = np.frombuffer(data, dtype=np.uint8).copy()
+    b[b == 13] = 32  # CR -> space
+    newlines = np.flatnonzero(b == 10)
+    per_frame = len(layout) + 1
+    n_frames, rest = divmod(newlines.size + 1, per_frame)
+    if rest or n_frames == 0:
+        return None
+    starts = np.concatenate(([0], newlines + 1)).reshape(n_frames, per_frame)
+    for r, (name, _) in enumerate(layout, 1):
+        # every frame's line r must start with "<name> "; blank the name out
+        expected = np.frombuffer(name.encode() + b" ", dtype=np.uint8)
+        if starts[-1, r] + expected.size > b.size:
+            return None
+        idx = starts[:, r, None] + np.arange(expected.size)
+        if not (b[idx] == expected).all():
+            return None
+        b[idx] = 32
+    # join each frame's lines into one line of numbers: keep only newlines before a frame number
+    keep = (np.arange(newlines.size) + 1) % per_frame == 0
+    b[newlines[~keep]] = 32
+    table = fast_number_table(b.tobytes())
+    width = 1 + sum(n for _, n in layout)
+    if table is None or table.shape != (n_frames, width):
+        return None
+    frame_no = table[:, 0]
+    if frame_no[0] < 0 or not np.array_equal(frame_no, frame_no[0] + np.arange(n_frames)):
+        return None  # frame numbers must count up by one (else the slow path decides)
+    cols = np.cumsum([1] + [n for _, n in layout])
+    return {name: table[:, c:c + n] for c, (name, n) in zip(cols, layout)}, n_frames
 
 
 def _parse_amc_slow(lines, start, path, bone_dofs):
     """Line-by-line AMC parse with exact error lines (also handles varying layouts)."""
     frames: list[dict[str, np.ndarray]] = []
+    frame_lines: list[int] = []
     for i in range(start, len(lines)):
         parts = lines[i].split()
         if not parts:
             continue
-        if parts[0].lstrip()[0] in "#:":
+        if parts[0][0] in "#:":
             continue
         if len(parts) == 1 and parts[0].isdigit():
             frames.append({})
+            frame_lines.append(i + 1)
             continue
         if not frames:
             raise MocapFormatError(path, i + 1, f"expected a frame number, found {parts[0]!r}")
         name = parts[0]
         if name not in bone_dofs:
             raise MocapFormatError(path, i + 1, f"unknown joint {name!r} in AMC frame")
+        if name in frames[-1]:
+            raise MocapFormatError(path, i + 1, f"joint {name!r} twice in one frame")
         frames[-1][name] = _floats(parts[1:], path, i + 1, bone_dofs[name])
     if not frames:
         raise MocapFormatError(path, len(lines), "no frames in AMC file")
     names = list(frames[0])
     for f, frame in enumerate(frames):
-        missing = [n for n in names if n not in frame]
-        if missing:
-            raise MocapFormatError(path, len(lines), f"frame {f + 1} lacks {missing[0]!r} (truncated file?)")
+        if set(frame) != set(names):
+            missing = [n for n in names if n not in frame]
+            what = f"lacks {missing[0]!r}" if missing else f"has {sorted(set(frame) - set(names))[0]!r} " \
+                "that the first frame has not"
+            raise MocapFormatError(path, frame_lines[f], f"frame {f + 1} {what}"
+                                   + (" (truncated file?)" if f == len(frames) - 1 else ""))
     return {n: np.stack([fr[n] for fr in frames]) for n in names}, len(frames)
 
 
@@ -264,15 +313,30 @@ def read_amc(amc_path: str | Path, asf: AsfSkeleton | str | Path, fps: float = 1
     skeleton = asf.to_skeleton()
     rotations = np.broadcast_to(np.eye(3), (n_frames, skeleton.n_joints, 3, 3)).copy()
     root_positions = np.zeros((n_frames, 3))
+    # Group joints by their (padded) Euler order so each order is one batched conversion.
+    groups: dict[str, tuple[list[int], list[np.ndarray]]] = {}
     for j, name in enumerate(skeleton.names):
         if name not in values:
             continue
-        v = values[name] if degrees else np.degrees(values[name])
         dofs = asf.root_order if name == "root" else asf.bones[name].dof
         if name == "root":
-            t = [dofs.index(d) for d in _TRANS_DOFS]
-            root_positions = values[name][:, t] * asf.length_unit
-        c = asf.axis_matrix(name)
-        rotations[:, j] = c @ _dof_rotation(v, dofs) @ c.T
+            root_positions = values[name][:, [dofs.index(d) for d in _TRANS_DOFS]] * asf.length_unit
+        rot = [d for d in dofs if d in _ROT_DOFS]
+        if not rot:
+            continue
+        order = "".join(d[1].upper() for d in rot)
+        order += "".join(a for a in "XYZ" if a not in order)
+        angles = np.zeros((n_frames, 3))
+        angles[:, :len(rot)] = values[name][:, [dofs.index(d) for d in rot]]
+        groups.setdefault(order, ([], []))
+        groups[order][0].append(j)
+        groups[order][1].append(angles)
+    axes = np.array([asf.axis_matrix(name) for name in skeleton.names])
+    for order, (idx, angles) in groups.items():
+        stacked = np.stack(angles, axis=1)
+        if not degrees:
+            stacked = np.degrees(stacked)
+        # Acclaim lists the first-applied axis first: R = R[order[2]] R[order[1]] R[order[0]].
+        rotations[:, idx] = euler_to_matrix(stacked[..., ::-1], order[::-1], axes=axes[idx])
     meta = {"source": str(amc_path), "format": "amc", "asf": asf.path, "length_unit": asf.length_unit}
     return Motion(skeleton, rotations, root_positions, fps, name=Path(str(amc_path)).stem, meta=meta)
