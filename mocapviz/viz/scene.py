@@ -119,6 +119,22 @@ def _look(p: pv.Plotter, focal, view_dir, distance: float, elevation_deg: float 
     p.renderer.ResetCameraClippingRange()  # else a moved camera clips the scene away
 
 
+def _fit_points(points: np.ndarray, focal, view_dir, window_size, elevation_deg: float,
+                view_angle: float = 30.0, margin: float = 1.08) -> float:
+    """Smallest camera distance (camera as in :func:`_look`) that keeps every point in view."""
+    view_dir = np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)
+    el = np.deg2rad(elevation_deg)
+    back = -view_dir * np.cos(el) + geo.UP * np.sin(el)
+    right = np.cross(-back, geo.UP)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, -back)
+    q = np.asarray(points, dtype=np.float64).reshape(-1, 3) - np.asarray(focal)
+    x, y, z = q @ right, q @ up, q @ back
+    tan_v = np.tan(np.deg2rad(view_angle) / 2) / margin
+    tan_h = tan_v * window_size[0] / window_size[1]
+    return float(max(np.max(np.abs(x) / tan_h + z), np.max(np.abs(y) / tan_v + z), 0.5))
+
+
 def _fit_distance(width: float, height: float, window_size, view_angle: float = 30.0, margin=1.1) -> float:
     """Camera distance so that a width x height box fills the window (perspective)."""
     half_v = np.deg2rad(view_angle) / 2
@@ -192,14 +208,20 @@ class ClipScene:
         if label:
             self.p.add_text(label, position="upper_left", font_size=11, color="black")
         self.actor = None
+        self.elevation = 15.0
         self._extent = max(extent_h, 1.2) + 0.6
         if not follow:
             self._aim(self.center)
 
     def _aim(self, focal):
-        focal = np.array([focal[0], self.floor + self.height * 0.4, focal[2]])
-        d = _fit_distance(self._extent, self.height + 0.3, self.window_size, margin=1.0)
-        _look(self.p, focal, self.view_dir, d, elevation_deg=15.0)
+        focal = np.array([focal[0], self.floor + self.height * 0.45, focal[2]])
+        if self.follow:  # a 2.2 m wide window around the body
+            d = _fit_distance(self._extent, self.height + 0.3, self.window_size, margin=1.0)
+        else:  # every pose of the clip in view
+            pts = self.segments.reshape(-1, 3)
+            pts = pts[:: max(1, len(pts) // 4000)]
+            d = _fit_points(pts, focal, self.view_dir, self.window_size, self.elevation)
+        _look(self.p, focal, self.view_dir, d, elevation_deg=self.elevation)
 
     def frame(self, i: int) -> pv.Plotter:
         mesh = skeleton_mesh(self.segments[i])  # tubes and spheres carry their own normals
@@ -278,3 +300,31 @@ def frame_strip(motion: Motion, path: str | Path | None = None, n: int = 6, colo
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         imageio.imwrite(path, strip)
     return strip
+
+
+# ---------------------------------------------------------------- notebooks
+def show(p: pv.Plotter, path: str | Path | None = None, close: bool = True):
+    """Save a screenshot to ``path`` (if given) and show the scene in the notebook.
+
+    With the ``static`` backend the saved PNG itself is displayed (no second render);
+    otherwise ``p.show()`` opens the interactive (trame) view.
+    """
+    from IPython.display import Image, display
+
+    if path is not None:
+        path = save_screenshot(p, path)
+    if pv.global_theme.jupyter_backend != "static":
+        return p.show()
+    img = Image(filename=str(path)) if path is not None else Image(data=_png_bytes(p))
+    if close:
+        p.close()
+    display(img)
+    return None
+
+
+def _png_bytes(p: pv.Plotter) -> bytes:
+    import io
+
+    buf = io.BytesIO()
+    imageio.imwrite(buf, p.screenshot(return_img=True), format="png")
+    return buf.getvalue()
