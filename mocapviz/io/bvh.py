@@ -206,8 +206,25 @@ def read_bvh(path: str | Path, length_unit: float | None = None, text: str | Non
     skeleton.offsets[0] = 0.0  # the root's place is root_positions
     meta = {"source": str(path), "format": "bvh", "length_unit": unit, "frame_time": frame_time,
             "channels": [j.channels for j in joints], "root_offset": offsets[0] * unit,
+            "channel_values": values,
             "joint_translations": {k: v * unit for k, v in translations.items()}}
     return Motion(skeleton, rotations, root, _frame_rate(frame_time), name=Path(str(path)).stem, meta=meta)
+
+
+def _closest_euler(angles: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Of the two Tait-Bryan triples of each rotation, +-360 per angle, the one nearest ``ref``."""
+    alt = angles + np.array([180.0, 0.0, 180.0])
+    alt[..., 1] = 180.0 - angles[..., 1]
+    best = None
+    for cand in (angles, alt):
+        cand = cand + 360.0 * np.round((ref - cand) / 360.0)
+        err = np.abs(cand - ref).max(axis=-1)
+        if best is None:
+            best, best_err = cand, err
+        else:
+            take = err < best_err
+            best = np.where(take[..., None], cand, best)
+    return best
 
 
 def _fmt(x: float) -> str:
@@ -254,11 +271,28 @@ def write_bvh(motion: Motion, path: str | Path | None = None, length_unit: float
 
     emit(0, 0)
     columns = []
+    # Angles as read, when the motion still has the file's frames: an unchanged rotation is
+    # written with its original angles (wrap-around and gimbal choices kept), a changed one
+    # with the Euler triple nearest to them.
+    ref_values = motion.meta.get("channel_values")
+    n_chan = sum(len(c) for c in channels)
+    if ref_values is None or ref_values.shape != (motion.n_frames, n_chan):
+        ref_values = None
+    col = 0
     for j, chans in enumerate(channels):
         rot = [c for c in chans if c in _ROT]
-        euler = matrix_to_euler(motion.rotations[:, j], "".join(_ROT[c] for c in rot)) if rot else None
+        euler = None
+        if rot:
+            order = "".join(_ROT[c] for c in rot)
+            euler = matrix_to_euler(motion.rotations[:, j], order)
+            if ref_values is not None:
+                ref = ref_values[:, [col + chans.index(c) for c in rot]]
+                euler = _closest_euler(euler, ref)
+                same = np.abs(euler_to_matrix(ref, order) - motion.rotations[:, j]).max(axis=(-1, -2)) < 1e-10
+                euler[same] = ref[same]
+        col += len(chans)
         trans = motion.root_positions if j == 0 else joint_trans.get(j)
-        if trans is None:
+        if trans is None or len(trans) != motion.n_frames:
             trans = np.tile(sk.offsets[j], (motion.n_frames, 1))
         for c in chans:
             columns.append(euler[:, rot.index(c)] if c in _ROT else trans[:, _POS[c]] / unit)
