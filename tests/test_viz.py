@@ -174,7 +174,7 @@ def test_headless_default_is_set_before_pyvista():
 
 
 def test_backend_choice(monkeypatch):
-    for k in ("CI", "GITHUB_ACTIONS", "GITLAB_CI", "PAPERMILL_EXECUTION", "MOCAPVIZ_PYVISTA_BACKEND"):
+    for k in ("CI", "GITHUB_ACTIONS", "GITLAB_CI", "MOCAPVIZ_PYVISTA_BACKEND"):
         monkeypatch.delenv(k, raising=False)
     monkeypatch.setattr(scene, "_trame_available", lambda: True)
     assert scene.choose_notebook_backend(quick=True) == "static"

@@ -40,7 +40,7 @@ TRACK_COLOR = "#1f77b4"
 
 # ---------------------------------------------------------------- notebook backend
 def _in_ci() -> bool:
-    return any(os.environ.get(k) for k in ("CI", "GITHUB_ACTIONS", "GITLAB_CI", "PAPERMILL_EXECUTION"))
+    return any(os.environ.get(k) for k in ("CI", "GITHUB_ACTIONS", "GITLAB_CI"))
 
 
 def _trame_available() -> bool:
