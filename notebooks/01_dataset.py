@@ -86,7 +86,8 @@ pd.DataFrame({"CCNet paper": paper, "ours (HDM05 + CMU)": ours})
 
 # %%
 colors = subject_colors(table.index.get_level_values("subject"), table.index.get_level_values("source"))
-fig = plots.plot_dataset_minutes(catalog, colors, fig_dir / "dataset_seconds_per_subject.png")
+fig = plots.plot_dataset_minutes(catalog, table.index.get_level_values("subject"),
+                                 fig_dir / "dataset_seconds_per_subject.png")
 
 # %% [markdown]
 # HDM05 gives each actor minutes of varied motion; the CMU clips are seconds long (some are

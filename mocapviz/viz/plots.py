@@ -72,18 +72,23 @@ def plot_bone_lengths(table: pd.DataFrame, colors: dict | None = None, path: str
     return fig
 
 
-def plot_dataset_minutes(catalog: pd.DataFrame, colors: dict | None = None, path: str | Path | None = None):
-    """Seconds of motion per subject, stacked by motion type (from catalog rows)."""
+def plot_dataset_minutes(catalog: pd.DataFrame, order=None, path: str | Path | None = None):
+    """Seconds of motion per subject, stacked by motion type, total written above each bar.
+
+    ``order``: subjects left to right (default: catalog order).
+    """
     seconds = catalog.pivot_table(index="subject", columns="motion_type", values="duration_s",
                                   aggfunc="sum", fill_value=0.0, sort=False)
-    fig, ax = plt.subplots(figsize=(10, 4), layout="constrained")
+    seconds = seconds.reindex(list(order) if order is not None else seconds.index)
+    fig, ax = plt.subplots(figsize=(11, 4), layout="constrained")
     seconds.plot.bar(stacked=True, ax=ax, width=0.8, colormap="tab20", legend=True)
-    ax.set_ylabel("seconds")
+    for x, total in enumerate(seconds.sum(axis=1)):
+        ax.text(x, total + 1.5, f"{total:.0f}" if total >= 10 else f"{total:.1f}", ha="center", fontsize=7)
+    ax.set_ylim(0, seconds.sum(axis=1).max() * 1.1)
+    ax.set_ylabel("seconds of motion")
     ax.set_xlabel("")
+    ax.set_title("Motion per subject and type (HDM05 actors left, CMU subjects right)")
     ax.legend(fontsize=7, ncol=2, bbox_to_anchor=(1.01, 1), loc="upper left")
-    if colors:
-        for tick in ax.get_xticklabels():
-            tick.set_color(colors.get(tick.get_text(), "black"))
     if path is not None:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, dpi=120)
