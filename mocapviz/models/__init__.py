@@ -1,0 +1,1 @@
+"""Neural motion models."""

@@ -1,0 +1,261 @@
+"""CCNet (paper §3.2): encoder, separate residual blocks (SRBs), skip sum, decoder.
+
+Parameters are Conv1d weights (paper's layers); the forward pass works in (B, T, C) and runs the\nk=1 convs and the two taps of each k=2 dilated conv as matmuls (much faster than Conv1d on CPU).
+Input index t carries the frame x_t and the controls c_{t+1} of the frame to predict; output
+index t is the Gaussian of x_{t+1} (mean, sigma), its foot-contact logits, and the predicted
+trajectory control c^d_{t+2} (mean, sigma), fed back when no user control is given.
+
+SRB i (Fig. 2): z = DilatedCausalConv_{k=2,d_i}(h) + Conv1x1_s(c^s) + Conv1x1_d(c^d) + Conv1x1_t(c^t);
+g = tanh(z_a) * sigmoid(z_b) (WaveNet's gated unit, 2C channels split in two halves);
+h <- h + Conv1x1_res(g) (no bias); skip_i = Conv1x1_skip(g). The decoder sees sum_i skip_i (Eq. 4).
+
+:class:`CCNetStepper` is the same network run one frame at a time (the fast-WaveNet queue idea):
+each block keeps its last d_i inputs in a ring, so a new frame costs one small matmul chain per
+block instead of recomputing the receptive field.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field, replace
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+
+@dataclass(frozen=True)
+class CCNetConfig:
+    n_x: int = 306            # frame vector size (continuous + 2 contacts)
+    n_contact: int = 2
+    n_skel: int = 73          # c^s
+    n_traj: int = 12          # c^d
+    n_types: int = 13         # c^t
+    channels: int = 48        # residual channels C (the gated unit has 2C)
+    skip_channels: int = 64
+    dilations: tuple[int, ...] = (2,) * 20
+    kernel_size: int = 2
+    dropout: float = 0.5
+    sigma_min: float = 1e-4
+
+    def __post_init__(self):
+        if self.kernel_size != 2:
+            raise ValueError("CCNet's SRBs use kernel size 2 (paper §3.2.2)")
+        if not self.dilations or min(self.dilations) < 1:
+            raise ValueError("dilations must be positive")
+        object.__setattr__(self, "dilations", tuple(int(d) for d in self.dilations))
+
+    @property
+    def n_cont(self) -> int:
+        return self.n_x - self.n_contact
+
+    @property
+    def receptive_field(self) -> int:
+        return receptive_field(self.dilations, self.kernel_size)
+
+    @property
+    def n_out(self) -> int:
+        return 2 * self.n_cont + self.n_contact + 2 * self.n_traj
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), sort_keys=True)
+
+    @classmethod
+    def from_json(cls, s: str) -> "CCNetConfig":
+        d = json.loads(s)
+        d["dilations"] = tuple(d["dilations"])
+        return cls(**d)
+
+
+def receptive_field(dilations, kernel_size: int = 2) -> int:
+    """Eq. 3: CRL = (k - 1) + sum_i d_i (k - 1) frames."""
+    return (kernel_size - 1) + sum(int(d) * (kernel_size - 1) for d in dilations)
+
+
+# Named sizes. "paper": 20 SRBs with d = 2 (CRL 41); the paper's Fig. 2 channel counts are not
+# legible in our copy, so 256 residual/skip channels (a WaveNet-typical width) is our reading.
+SIZES = {
+    "quick": dict(channels=32, skip_channels=32),
+    "default": dict(channels=48, skip_channels=64),
+    "paper": dict(channels=256, skip_channels=256),
+}
+
+
+def make_config(size: str = "default", **overrides) -> CCNetConfig:
+    if size not in SIZES:
+        raise KeyError(f"unknown CCNet size {size!r}; choose from {sorted(SIZES)}")
+    return CCNetConfig(**{**SIZES[size], **overrides})
+
+
+class SRB(nn.Module):
+    """Separate residual block: dilated causal conv plus one 1x1 conv per control type."""
+
+    def __init__(self, cfg: CCNetConfig, dilation: int):
+        super().__init__()
+        c = cfg.channels
+        self.dilation = dilation
+        self.conv = nn.Conv1d(c, 2 * c, kernel_size=2, dilation=dilation)
+        self.ctrl_skel = nn.Conv1d(cfg.n_skel, 2 * c, 1, bias=False)
+        self.ctrl_traj = nn.Conv1d(cfg.n_traj, 2 * c, 1, bias=False)
+        self.ctrl_type = nn.Conv1d(cfg.n_types, 2 * c, 1, bias=False)
+        self.res = nn.Conv1d(c, c, 1, bias=False)
+        self.skip = nn.Conv1d(c, cfg.skip_channels, 1)
+
+    def forward(self, h, skel, traj, types):
+        """(B, T, C) layout; 1x1 convs as matmuls. skel/types may be (B, 1, D) (broadcast)."""
+        d = self.dilation
+        past = F.pad(h, (0, 0, d, 0))[:, :h.shape[1]]  # h_{t-d}, zeros before the start
+        w = self.conv.weight
+        z = F.linear(past, w[:, :, 0], self.conv.bias) + F.linear(h, w[:, :, 1])
+        z = z + F.linear(skel, self.ctrl_skel.weight[:, :, 0]) + F.linear(traj, self.ctrl_traj.weight[:, :, 0]) \
+            + F.linear(types, self.ctrl_type.weight[:, :, 0])
+        a, b = z.chunk(2, dim=-1)
+        g = torch.tanh(a) * torch.sigmoid(b)
+        return h + F.linear(g, self.res.weight[:, :, 0]), F.linear(g, self.skip.weight[:, :, 0], self.skip.bias)
+
+
+class CCNet(nn.Module):
+    def __init__(self, cfg: CCNetConfig):
+        super().__init__()
+        self.cfg = cfg
+        self.dropout = nn.Dropout(cfg.dropout)
+        self.encoder = nn.Conv1d(cfg.n_x, cfg.channels, 1)
+        self.blocks = nn.ModuleList(SRB(cfg, d) for d in cfg.dilations)
+        self.decoder = nn.Conv1d(cfg.skip_channels, cfg.n_out, 1)
+
+    @staticmethod
+    def _ctrl(c):
+        return c if c.dim() == 3 else c[:, None]
+
+    def forward(self, x, skel, traj, types) -> dict[str, torch.Tensor]:
+        """x (B, T, n_x); skel (B, n_skel) or (B, T, n_skel); traj (B, T, n_traj);
+        types (B, n_types) or (B, T, n_types). Returns (B, T, .) tensors."""
+        h = torch.relu(F.linear(self.dropout(x), self.encoder.weight[:, :, 0], self.encoder.bias))
+        skel, traj, types = self._ctrl(skel), self._ctrl(traj), self._ctrl(types)
+        skip = 0
+        for blk in self.blocks:
+            h, s = blk(h, skel, traj, types)
+            skip = skip + s
+        out = F.linear(torch.relu(skip), self.decoder.weight[:, :, 0], self.decoder.bias)
+        return self.split_output(out)
+
+    def split_output(self, out) -> dict[str, torch.Tensor]:
+        c = self.cfg
+        n, k, d = c.n_cont, c.n_contact, c.n_traj
+        mean, s, contact, traj_mean, traj_s = torch.split(out, [n, n, k, d, d], dim=-1)
+        return dict(mean=mean, sigma=torch.exp(-s).clamp_min(c.sigma_min), contact_logits=contact,
+                    traj_mean=traj_mean, traj_sigma=torch.exp(-traj_s).clamp_min(c.sigma_min))
+
+
+@dataclass
+class _StepWeights:
+    enc_w: torch.Tensor
+    enc_b: torch.Tensor
+    ctrl_static_w: torch.Tensor   # (n_skel + n_types, nb * 2C)
+    ctrl_traj_w: torch.Tensor     # (n_traj, nb * 2C)
+    ctrl_b: torch.Tensor          # (nb * 2C,)
+    past_w: list = field(default_factory=list)
+    cur_w: list = field(default_factory=list)
+    res_w: list = field(default_factory=list)
+    skip_w: torch.Tensor = None   # (nb * C, S)
+    skip_b: torch.Tensor = None
+    dec_w: torch.Tensor = None
+    dec_b: torch.Tensor = None
+
+
+class CCNetStepper:
+    """Incremental CCNet: one frame per call, past block inputs kept in per-block rings.
+
+    Equal to ``CCNet.forward`` (eval mode) on the whole sequence, to float rounding. The gated
+    unit uses sigmoid(b) = (1 + tanh(b/2)) / 2 so one tanh serves both halves (the gate half
+    of the weights is pre-scaled by 1/2, and the 1/2 folded into the residual/skip weights);
+    skip projections of all blocks are one matmul on the concatenated gate outputs.
+    """
+
+    def __init__(self, model: CCNet, batch: int = 1, dtype=torch.float32):
+        """Copies the weights of ``model`` (retake a stepper after changing the model)."""
+        self.cfg = cfg = model.cfg
+        self.batch = batch
+        c = cfg.channels
+        nb = len(cfg.dilations)
+        with torch.no_grad():
+            gate_scale = torch.cat([torch.ones(c), torch.full((c,), 0.5)]).to(dtype)
+            st, tr, bias = [], [], []
+            w = _StepWeights(enc_w=model.encoder.weight[:, :, 0].T.to(dtype).contiguous(),
+                             enc_b=model.encoder.bias.to(dtype).clone(), ctrl_static_w=None,
+                             ctrl_traj_w=None, ctrl_b=None)
+            skip_ws, skip_b = [], 0
+            for blk in model.blocks:
+                cw = blk.conv.weight.to(dtype) * gate_scale[:, None, None]
+                w.past_w.append(cw[:, :, 0].T.contiguous())
+                w.cur_w.append(cw[:, :, 1].T.contiguous())
+                st.append(torch.cat([blk.ctrl_skel.weight[:, :, 0], blk.ctrl_type.weight[:, :, 0]], 1).to(dtype)
+                          * gate_scale[:, None])
+                tr.append(blk.ctrl_traj.weight[:, :, 0].to(dtype) * gate_scale[:, None])
+                bias.append(blk.conv.bias.to(dtype) * gate_scale)
+                w.res_w.append((0.5 * blk.res.weight[:, :, 0].T).to(dtype).contiguous())
+                skip_ws.append((0.5 * blk.skip.weight[:, :, 0].T).to(dtype))
+                skip_b = skip_b + blk.skip.bias.to(dtype)
+            w.ctrl_static_w = torch.cat(st, 0).T.contiguous()
+            w.ctrl_traj_w = torch.cat(tr, 0).T.contiguous()
+            w.ctrl_b = torch.cat(bias)
+            w.skip_w = torch.cat(skip_ws, 0).contiguous()
+            w.skip_b = skip_b.clone()
+            w.dec_w = model.decoder.weight[:, :, 0].T.to(dtype).contiguous()
+            w.dec_b = model.decoder.bias.to(dtype).clone()
+        self.w = w
+        self.dtype = dtype
+        self._static = None
+        self.reset()
+
+    def reset(self):
+        """Forget the past (zeros, as the causal padding of the full model)."""
+        nb, r = len(self.cfg.dilations), max(self.cfg.dilations)
+        # hist[t % R, i] holds block i's input at frame t; block i reads frame t - d_i.
+        self.hist = torch.zeros(r, nb, self.batch, self.cfg.channels, dtype=self.dtype)
+        self._past_index = [torch.tensor([(p - d) % r for d in self.cfg.dilations]) for p in range(r)]
+        self._blocks = torch.arange(nb)
+        self._past_w = torch.stack(self.w.past_w)
+        self.t = 0
+
+    def set_static(self, skel: torch.Tensor, types: torch.Tensor):
+        """Skeleton (B, n_skel) and type one-hot (B, n_types): their projection is cached."""
+        with torch.inference_mode():
+            self._static = torch.addmm(self.w.ctrl_b, torch.cat([skel, types], 1).to(self.dtype),
+                                       self.w.ctrl_static_w)
+
+    def step(self, x: torch.Tensor, traj: torch.Tensor) -> torch.Tensor:
+        """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}; returns the raw decoder
+        output (B, n_out) for frame t+1 (split it with ``CCNet.split_output``)."""
+        w = self.w
+        c = self.cfg.channels
+        nb = len(self.rings_shape)
+        r = self.hist.shape[0]
+        h = torch.relu(torch.addmm(w.enc_b, x, w.enc_w))
+        cz = torch.addmm(self._static, traj, w.ctrl_traj_w)
+        past = self.hist[self._past_index[self.t % r], self._blocks]          # (nb, B, C)
+        pre = torch.baddbmm(cz.view(self.batch, nb, 2 * c).transpose(0, 1), past, self._past_w)
+        gs, hs = [], []
+        for i in range(nb):
+            hs.append(h)
+            z = torch.addmm(pre[i], h, w.cur_w[i]).tanh_()
+            a = z[:, :c]
+            g = torch.addcmul(a, a, z[:, c:])      # 2 tanh(a) sigmoid(b); the 1/2 is in res/skip
+            gs.append(g)
+            h = torch.addmm(h, g, w.res_w[i])
+        torch.stack(hs, out=self.hist[self.t % r])
+        self.t += 1
+        skip = torch.addmm(w.skip_b, torch.cat(gs, 1), w.skip_w).relu_()
+        return torch.addmm(w.dec_b, skip, w.dec_w)
+
+    @property
+    def rings_shape(self):
+        return self.cfg.dilations
+
+
+def count_parameters(model: nn.Module) -> int:
+    return sum(p.numel() for p in model.parameters())
+
+
+def with_sizes(cfg: CCNetConfig, **kw) -> CCNetConfig:
+    return replace(cfg, **kw)

@@ -1,0 +1,1 @@
+"""Losses, checkpoints and the training loop."""

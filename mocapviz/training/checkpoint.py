@@ -1,0 +1,104 @@
+"""CCNet checkpoints: one safetensors file rebuilds model + normaliser (config in metadata).
+
+Tensors: ``model.*`` (state dict), ``norm.*`` (normalisation statistics), optionally ``optim.*``
+(RMSprop state, for exact resume). Metadata (strings): ``model_config`` (JSON of
+:class:`CCNetConfig`), ``train_config``, ``dataset`` (JSON: hash, test subject, joint names,
+motion types, fps, training mean joint speed), ``step``, ``format``. Writes are atomic.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import torch
+from safetensors import safe_open
+from safetensors.torch import save_file
+
+from mocapviz.features.ccnet import Normaliser
+from mocapviz.models.ccnet import CCNet, CCNetConfig
+
+FORMAT = "mocapviz.ccnet.v1"
+
+
+def _optim_tensors(opt: torch.optim.Optimizer) -> tuple[dict, str]:
+    sd = opt.state_dict()
+    tensors = {}
+    for pid, st in sd["state"].items():
+        for k, v in st.items():
+            tensors[f"optim.{pid}.{k}"] = torch.as_tensor(v).detach().clone()
+    return tensors, json.dumps(sd["param_groups"])
+
+
+def save_checkpoint(path, model: CCNet, normaliser: Normaliser, meta: dict | None = None,
+                    optimizer: torch.optim.Optimizer | None = None) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tensors = {f"model.{k}": v.detach().contiguous().clone() for k, v in model.state_dict().items()}
+    tensors.update({f"norm.{k}": torch.from_numpy(v) for k, v in normaliser.state_dict().items()})
+    metadata = {"format": FORMAT, "model_config": model.cfg.to_json()}
+    for k, v in (meta or {}).items():
+        metadata[k] = v if isinstance(v, str) else json.dumps(v)
+    if optimizer is not None:
+        t, groups = _optim_tensors(optimizer)
+        tensors.update(t)
+        metadata["optim_param_groups"] = groups
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        save_file(tensors, tmp, metadata=metadata)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def read_checkpoint(path) -> tuple[dict[str, torch.Tensor], dict[str, str]]:
+    with safe_open(str(path), framework="pt") as f:
+        meta = f.metadata() or {}
+        tensors = {k: f.get_tensor(k) for k in f.keys()}
+    if meta.get("format") != FORMAT:
+        raise ValueError(f"{path}: not a CCNet checkpoint (format {meta.get('format')!r})")
+    return tensors, meta
+
+
+def load_checkpoint(path, optimizer: torch.optim.Optimizer | None = None, model: CCNet | None = None):
+    """(model in eval mode, normaliser, metadata dict with JSON values decoded).
+
+    Pass ``model`` and ``optimizer`` to restore into existing objects (for resuming).
+    """
+    tensors, meta = read_checkpoint(path)
+    cfg = CCNetConfig.from_json(meta["model_config"])
+    if model is None:
+        model = CCNet(cfg)
+    model.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("model.")})
+    norm = Normaliser.from_state_dict({k[5:]: v.numpy() for k, v in tensors.items() if k.startswith("norm.")})
+    if optimizer is not None:
+        if "optim_param_groups" not in meta:
+            raise ValueError(f"{path} holds no optimizer state; cannot resume from it")
+        state: dict = {}
+        for k, v in tensors.items():
+            if k.startswith("optim."):
+                _, pid, name = k.split(".", 2)
+                state.setdefault(int(pid), {})[name] = v
+        optimizer.load_state_dict({"state": state, "param_groups": json.loads(meta["optim_param_groups"])})
+    decoded = {}
+    for k, v in meta.items():
+        try:
+            decoded[k] = json.loads(v)
+        except (json.JSONDecodeError, TypeError):
+            decoded[k] = v
+    model.eval()
+    return model, norm, decoded
+
+
+def file_size_mb(path) -> float:
+    return os.path.getsize(path) / 2 ** 20
+
+
+def normaliser_equal(a: Normaliser, b: Normaliser) -> bool:
+    return all(np.array_equal(getattr(a, k), getattr(b, k)) for k in a.__dataclass_fields__)

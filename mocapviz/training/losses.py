@@ -1,0 +1,52 @@
+"""CCNet's training loss (paper §3.3, Eq. 6-10).
+
+L = L_G + lambda1 L_s + lambda2 L_f + lambda3 L_d with lambda = (10, 2, 1):
+
+- L_G (Eq. 7): Gaussian negative log-likelihood of the continuous part of x_{n+1} under the
+  predicted diagonal Gaussian (sigma = exp(-s) clipped at >= 1e-4), summed over channels.
+- L_d (Eq. 10): the same Gaussian NLL for the predicted trajectory control c^d. The paper folds
+  it into L_G; with lambda3 = 1 keeping it as a separate term is the same sum, and lets us log it.
+- L_s (Eq. 8): smoothness of the predicted means. Eq. 8 as printed sums the *signed* second
+  differences mu_{n-2} + mu_n - 2 mu_{n-1}, which telescopes and can go negative (so it would be
+  minimised by making the motion ever more convex, not smooth). We use the **squared** second
+  difference, summed over channels: a penalty that is zero only for linear motion.
+- L_f (Eq. 9): binary cross-entropy of the two foot-contact labels (from logits).
+
+Every term is summed over its channels and averaged over frames and batch, so L is "per frame".
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+import torch.nn.functional as F
+
+LAMBDAS = (10.0, 2.0, 1.0)
+_HALF_LOG_2PI = 0.5 * math.log(2 * math.pi)
+
+
+def gaussian_nll(target: torch.Tensor, mean: torch.Tensor, sigma: torch.Tensor) -> torch.Tensor:
+    """Element-wise -ln N(target | mean, sigma^2)."""
+    return torch.log(sigma) + 0.5 * ((target - mean) / sigma) ** 2 + _HALF_LOG_2PI
+
+
+def smoothness(mean: torch.Tensor) -> torch.Tensor:
+    """Squared second difference of the means along time (B, T, D), summed over D."""
+    if mean.shape[1] < 3:
+        return mean.new_zeros(())
+    d2 = mean[:, 2:] + mean[:, :-2] - 2 * mean[:, 1:-1]
+    return (d2 ** 2).sum(-1).mean()
+
+
+def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_cont: int,
+               lambdas=LAMBDAS) -> dict[str, torch.Tensor]:
+    """out: the model's dict; target_x (B, T, n_x) = x_{t+1}; target_traj (B, T, 12) = c^d_{t+2}."""
+    l1, l2, l3 = lambdas
+    nll = gaussian_nll(target_x[..., :n_cont], out["mean"], out["sigma"]).sum(-1).mean()
+    direction = gaussian_nll(target_traj, out["traj_mean"], out["traj_sigma"]).sum(-1).mean()
+    contact = F.binary_cross_entropy_with_logits(out["contact_logits"], target_x[..., n_cont:],
+                                                 reduction="none").sum(-1).mean()
+    smooth = smoothness(out["mean"])
+    total = nll + l1 * smooth + l2 * contact + l3 * direction
+    return dict(loss=total, nll=nll, smooth=smooth, contact=contact, direction=direction)
