@@ -42,12 +42,13 @@ FIG_DIR = "../figures"
 # 1/14 of the paper's data, with more subjects but far fewer frames per subject.
 
 # %%
+from pathlib import Path
+
 import pandas as pd
 from IPython.display import Image, display
 
 from data_prep.catalog import build_catalog, load_motion, summary_table
 from mocapviz.viz import plots, scene, subject_colors
-from pathlib import Path
 
 fig_dir = Path(FIG_DIR)
 fig_dir.mkdir(parents=True, exist_ok=True)
@@ -71,7 +72,6 @@ seconds.style.format("{:.1f}").background_gradient(axis=None, cmap="Blues", subs
 # Totals next to the paper's (CCNet §4.1.1):
 
 # %%
-fps = catalog.groupby("source").fps.first()
 ours = {
     "subjects": catalog.subject.nunique(),
     "motion types": catalog.motion_type.nunique(),
@@ -88,6 +88,7 @@ pd.DataFrame({"CCNet paper": paper, "ours (HDM05 + CMU)": ours})
 colors = subject_colors(table.index.get_level_values("subject"), table.index.get_level_values("source"))
 fig = plots.plot_dataset_minutes(catalog, table.index.get_level_values("subject"),
                                  fig_dir / "dataset_seconds_per_subject.png")
+plots.show(fig)
 
 # %% [markdown]
 # HDM05 gives each actor minutes of varied motion; the CMU clips are seconds long (some are
@@ -132,6 +133,7 @@ scene.show(p, fig_dir / "ccnet_fig03a_skeletons.png")
 # %%
 bones = plots.bone_length_table(skeletons)
 fig = plots.plot_bone_lengths(bones, colors, fig_dir / "ccnet_bone_lengths.png")
+plots.show(fig)
 
 # %%
 bones.describe().loc[["mean", "std", "min", "max"]].round(3)

@@ -22,6 +22,22 @@ VICON_BONE_NAMES = {
 }
 
 
+def show(fig) -> None:
+    """Display a figure as PNG in a notebook, whatever the matplotlib backend, and close it.
+
+    ``MPLBACKEND=Agg`` (set by the Makefile for headless runs) would otherwise leave the
+    notebook without the figure; closing it avoids a second copy under the inline backend.
+    """
+    import io
+
+    from IPython.display import Image, display
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    display(Image(data=buf.getvalue()))
+
+
 def bone_length_table(skeletons: dict, bones: dict | None = None) -> pd.DataFrame:
     """Bone lengths in metres, one row per skeleton (name -> Skeleton), one column per bone.
 

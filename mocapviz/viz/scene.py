@@ -44,12 +44,11 @@ def _in_ci() -> bool:
 
 
 def _trame_available() -> bool:
-    try:
-        import trame  # noqa: F401
-        import trame_vtk  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    """pyvista's trame backend needs trame-pyvista (pyvista >= 0.47) or trame-vtk (older)."""
+    from importlib.util import find_spec
+
+    return find_spec("trame") is not None and (find_spec("trame_pyvista") is not None
+                                                or find_spec("trame_vtk") is not None)
 
 
 def choose_notebook_backend(quick: bool = True) -> str:
@@ -69,7 +68,12 @@ def choose_notebook_backend(quick: bool = True) -> str:
 def set_notebook_backend(quick: bool = True) -> str:
     """Set pyvista's Jupyter backend (see :func:`choose_notebook_backend`) and return it."""
     backend = choose_notebook_backend(quick)
-    pv.set_jupyter_backend(backend)
+    try:
+        pv.set_jupyter_backend(backend)
+    except ImportError as e:  # e.g. trame installed without pyvista's jupyter extra
+        print(f"pyvista backend {backend!r} unavailable ({e}); using static images")
+        backend = "static"
+        pv.set_jupyter_backend(backend)
     return backend
 
 
