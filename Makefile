@@ -20,9 +20,10 @@ $(VENV)/.installed: pyproject.toml
 
 setup: $(VENV)/.installed
 
+# FULL=1 runs the notebooks at paper scale (QUICK = False): meant for a GPU or a cluster.
 demo: setup
 	$(PY) -m data_prep build
-	$(PY) -m mocapviz.notebooks run --all --full
+	$(PY) tools/run_notebooks.py --all $(if $(FULL),--full,--quick)
 
 test: setup
 	$(PY) -m pytest -q tests
