@@ -9,6 +9,7 @@ Lengths are converted to metres; the file's unit is stored in ``motion.meta['len
 from __future__ import annotations
 
 import io
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -96,11 +97,12 @@ def _parse_hierarchy(lines: list[str], path) -> tuple[list[_Joint], list[tuple[i
             if len(parts) != 4 or not stack:
                 raise MocapFormatError(path, lineno, "OFFSET needs 3 numbers inside a joint")
             try:
-                off = np.array([float(v) for v in parts[1:]])
+                off = [float(v) for v in parts[1:]]
             except ValueError:
                 raise MocapFormatError(path, lineno, f"not a number in OFFSET: {' '.join(parts[1:])}") from None
-            if not np.all(np.isfinite(off)):
-                raise MocapFormatError(path, lineno, "OFFSET is not finite")
+            if not all(map(math.isfinite, off)) or any("_" in v for v in parts[1:]):
+                raise MocapFormatError(path, lineno, "OFFSET is not a finite number")
+            off = np.array(off)
             if stack[-1] == -2:
                 end_sites[current_end] = (end_sites[current_end][0], off)
             else:
