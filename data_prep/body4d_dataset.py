@@ -229,7 +229,7 @@ def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:
 
 
 def _frame_bytes(df: pd.DataFrame) -> np.ndarray:
-    return np.frombuffer(df.to_json(orient="split").encode(), dtype=np.uint8)
+    return np.frombuffer(df.to_json(orient="split", double_precision=15).encode(), dtype=np.uint8)
 
 
 def save_dataset(ds: Body4DDataset, path: Path) -> None:
@@ -250,7 +250,7 @@ def load_dataset(path: str | Path) -> Body4DDataset:
     from io import StringIO
 
     def frame(z, k):
-        return pd.read_json(StringIO(z[k].tobytes().decode()), orient="split")
+        return pd.read_json(StringIO(z[k].tobytes().decode()), orient="split", dtype=False)
 
     with np.load(path) as z:
         return Body4DDataset(z["chi"], z["beta"], frame(z, "cycles"), frame(z, "subjects"), frame(z, "clips"),

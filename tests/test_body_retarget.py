@@ -1,0 +1,70 @@
+"""Retargeting onto anny: rest-pose identities, joint error and foot sliding on real clips."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mocapviz.bodies.anny_model import NEUTRAL_BETA, body_model
+from mocapviz.bodies.retarget import STATIC_JOINTS, rest_alignment, retarget, retarget_report
+from mocapviz.motion import Motion
+
+
+@pytest.fixture(scope="session")
+def body():
+    return body_model()
+
+
+@pytest.fixture(scope="session")
+def clips(data_dir):
+    from data_prep.catalog import build_catalog, load_motion
+    cat = build_catalog(data_dir)
+    return {c: load_motion(cat[cat["clip"] == c].iloc[0]) for c in ("07_01", "HDM_bd_sneak2StepsLStart_001_120")}
+
+
+def _rest_motion(skeleton, n=2):
+    return Motion(skeleton, np.tile(np.eye(3), (n, skeleton.n_joints, 1, 1)), np.zeros((n, 3)), 120.0, name="rest")
+
+
+def test_anny_rest_pose_retargets_to_anny_rest_pose(body):
+    sk = body.rest_skeleton(NEUTRAL_BETA)
+    np.testing.assert_allclose(rest_alignment(sk, sk), np.tile(np.eye(3), (sk.n_joints, 1, 1)), atol=1e-9)
+    rest = body.rest_model(NEUTRAL_BETA)
+    src = _rest_motion(sk)
+    src.root_positions[:] = rest["joints"][0, 0].numpy()
+    out = retarget(src, sk)
+    np.testing.assert_allclose(out.rotations, src.rotations, atol=1e-9)
+    mesh = body.mesh(NEUTRAL_BETA, out.rotations, out.root_positions)
+    np.testing.assert_allclose(mesh.vertices[0].numpy(), rest["vertices"][0].numpy(), atol=1e-5)
+
+
+@pytest.mark.parametrize("clip", ["07_01", "HDM_bd_sneak2StepsLStart_001_120"])
+def test_source_rest_pose_gives_source_bone_directions(body, clips, clip):
+    """A mocap rest pose (T-like) on anny's A-pose body: every moving bone points the same way."""
+    src_sk = clips[clip].skeleton
+    tgt = body.rest_skeleton(NEUTRAL_BETA)
+    out = retarget(_rest_motion(src_sk), tgt)
+    ps, pt = _rest_motion(src_sk).positions()[0], out.positions()[0]
+    checked = 0
+    for j, name in enumerate(tgt.names):
+        p = tgt.parents[j]
+        if p < 0 or tgt.names[p] in STATIC_JOINTS or name not in src_sk.names:
+            continue
+        a = ps[src_sk.index(name)] - ps[src_sk.index(tgt.names[p])]
+        b = pt[j] - pt[p]
+        if np.linalg.norm(a) < 1e-3 or np.linalg.norm(b) < 1e-3 or len(src_sk.children(src_sk.index(tgt.names[p]))) > 1:
+            continue
+        assert np.dot(a, b) / np.linalg.norm(a) / np.linalg.norm(b) > 0.999, name
+        checked += 1
+    assert checked >= 12  # legs, arms, spine, neck
+
+
+@pytest.mark.parametrize("clip", ["07_01", "HDM_bd_sneak2StepsLStart_001_120"])
+def test_real_clip_joint_error_and_foot_sliding(body, clips, clip):
+    from mocapviz.bodies.shape_fit import fit_shapes
+    m = clips[clip]
+    beta = fit_shapes(body, {"s": m.skeleton}, steps=40).beta[0]
+    rep = retarget_report(m, retarget(m, body.rest_skeleton(beta)))
+    assert rep["joint_err_cm"] < 6.5, rep
+    assert rep["contact_frames"] > 50
+    assert rep["slide_anny_cm_s"] <= rep["slide_source_cm_s"] * 1.05, rep
