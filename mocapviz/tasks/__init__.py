@@ -1,0 +1,1 @@
+"""Tasks built on trained models: generation, denoising, completion, control."""

@@ -1,0 +1,157 @@
+"""CCNet network: causality, receptive field (Eq. 3), incremental = full, NLL by hand, checkpoints."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from mocapviz.models.ccnet import CCNet, CCNetConfig, CCNetStepper, receptive_field
+from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint
+from mocapviz.training.losses import ccnet_loss, gaussian_nll, smoothness
+from mocapviz.features.ccnet import Normaliser
+
+
+def small_cfg(dilations=(2,) * 20, **kw):
+    return CCNetConfig(n_x=30, n_skel=7, n_traj=12, n_types=3, channels=8, skip_channels=8,
+                       dilations=dilations, **kw)
+
+
+def inputs(cfg, b=2, t=90, seed=0):
+    g = torch.Generator().manual_seed(seed)
+    x = torch.randn(b, t, cfg.n_x, generator=g)
+    skel = torch.randn(b, cfg.n_skel, generator=g)
+    traj = torch.randn(b, t, cfg.n_traj, generator=g)
+    types = torch.zeros(b, cfg.n_types)
+    types[:, 1] = 1
+    return x, skel, traj, types
+
+
+def net(cfg, seed=0):
+    torch.manual_seed(seed)
+    m = CCNet(cfg).eval()
+    with torch.no_grad():  # larger output weights so that every input visibly moves the output
+        m.decoder.weight.mul_(10)
+    return m
+
+
+def outputs(m, x, skel, traj, types):
+    with torch.no_grad():
+        o = m(x, skel, traj, types)
+    return torch.cat([o["mean"], o["sigma"], o["contact_logits"], o["traj_mean"]], -1)
+
+
+def test_causality_changing_frame_t_leaves_earlier_outputs():
+    cfg = small_cfg()
+    m = net(cfg)
+    x, skel, traj, types = inputs(cfg)
+    base = outputs(m, x, skel, traj, types)
+    for t in (0, 17, 50, 89):
+        x2, traj2 = x.clone(), traj.clone()
+        x2[:, t] += 1.0
+        traj2[:, t] -= 1.0
+        out = outputs(m, x2, skel, traj2, types)
+        assert torch.equal(out[:, :t], base[:, :t])
+        assert (out[:, t] - base[:, t]).abs().max() > 1e-3
+
+
+@pytest.mark.parametrize("dilations", [(2,) * 20, (1, 2) * 10, (1, 2, 4) * 6 + (1, 2), (1,) * 5, (3, 7, 1)])
+def test_receptive_field_equals_eq3(dilations):
+    cfg = small_cfg(dilations)
+    crl = receptive_field(dilations)
+    assert crl == 1 + sum(dilations) == cfg.receptive_field
+    m = net(cfg, seed=1)
+    t_out = crl + 10
+    x, skel, traj, types = inputs(cfg, b=1, t=t_out + 1)
+    x.requires_grad_(True)
+    m(x, skel, traj, types)["mean"][0, t_out].sum().backward()
+    seen = np.flatnonzero(x.grad[0].abs().sum(-1).numpy() > 0)
+    # the span of input frames reaching output t is exactly CRL (Eq. 3)
+    assert seen.min() == t_out - crl + 1 and seen.max() == t_out
+    if all(d == 2 for d in dilations):  # the paper's d = 2 everywhere sees every other frame only
+        assert len(seen) == (crl + 1) // 2
+
+
+def test_paper_default_receptive_field_is_41():
+    assert CCNetConfig().receptive_field == 41
+
+
+@pytest.mark.parametrize("dilations", [(2,) * 20, (1, 2, 4) * 3])
+@pytest.mark.parametrize("batch", [1, 3])
+def test_incremental_equals_full_recompute(dilations, batch):
+    cfg = small_cfg(dilations)
+    m = net(cfg)
+    x, skel, traj, types = inputs(cfg, b=batch, t=70)
+    with torch.no_grad():
+        full = m(x, skel, traj, types)
+        raw_full = torch.cat([full["mean"], -torch.log(full["sigma"]), full["contact_logits"],
+                              full["traj_mean"]], -1)
+    st = CCNetStepper(m, batch)
+    st.set_static(skel, types)
+    with torch.inference_mode():
+        steps = torch.stack([st.step(x[:, t], traj[:, t]) for t in range(x.shape[1])], 1)
+    n = cfg.n_cont
+    keep = torch.cat([steps[..., :2 * n + cfg.n_contact], steps[..., 2 * n + cfg.n_contact:][..., :cfg.n_traj]], -1)
+    # sigma is clipped at 1e-4 in the full model; compare raw s only where it is not clipped
+    s_full = raw_full[..., n:2 * n]
+    unclipped = full["sigma"] > cfg.sigma_min
+    assert torch.allclose(keep[..., :n], raw_full[..., :n], atol=1e-5)
+    assert torch.allclose(keep[..., n:2 * n][unclipped], s_full[unclipped], atol=1e-5)
+    assert torch.allclose(keep[..., 2 * n:], raw_full[..., 2 * n:], atol=1e-5)
+
+
+def test_gaussian_nll_hand_computed():
+    x = torch.tensor([1.0, -2.0])
+    mu = torch.tensor([0.5, 0.0])
+    sigma = torch.tensor([2.0, 0.1])
+    expect = [math.log(2.0) + 0.5 * (0.5 / 2.0) ** 2 + 0.5 * math.log(2 * math.pi),
+              math.log(0.1) + 0.5 * (2.0 / 0.1) ** 2 + 0.5 * math.log(2 * math.pi)]
+    assert torch.allclose(gaussian_nll(x, mu, sigma), torch.tensor(expect), atol=1e-5)
+    # and against torch's own Gaussian
+    ref = -torch.distributions.Normal(mu, sigma).log_prob(x)
+    assert torch.allclose(gaussian_nll(x, mu, sigma), ref, atol=1e-5)
+
+
+def test_smoothness_is_squared_second_difference():
+    mean = torch.tensor([[[0.0], [1.0], [4.0], [9.0]]])  # second differences 2, 2
+    assert smoothness(mean).item() == pytest.approx(4.0)
+    linear = torch.arange(10.0).reshape(1, 10, 1) * 3
+    assert smoothness(linear).item() == 0.0
+    concave = -(torch.arange(10.0) ** 2).reshape(1, 10, 1)  # signed Eq. 8 would be negative
+    assert smoothness(concave).item() > 0
+
+
+def test_loss_combines_terms_with_paper_weights():
+    cfg = small_cfg()
+    m = net(cfg)
+    x, skel, traj, types = inputs(cfg)
+    out = m(x, skel, traj, types)
+    tx = torch.cat([torch.randn(2, 90, cfg.n_cont), (torch.rand(2, 90, 2) > 0.5).float()], -1)
+    parts = ccnet_loss(out, tx, traj, cfg.n_cont)
+    total = parts["nll"] + 10 * parts["smooth"] + 2 * parts["contact"] + parts["direction"]
+    assert torch.allclose(parts["loss"], total)
+    assert sigma_min_respected(out, cfg)
+
+
+def sigma_min_respected(out, cfg):
+    return bool((out["sigma"] >= cfg.sigma_min).all() and (out["traj_sigma"] >= cfg.sigma_min).all())
+
+
+def test_checkpoint_roundtrip_reproduces_outputs_exactly(tmp_path):
+    cfg = small_cfg((1, 2, 4))
+    m = net(cfg, seed=3)
+    norm = Normaliser(*(np.random.default_rng(0).normal(size=n).astype(np.float32) for n in (28, 28, 7, 7, 12, 12)))
+    path = save_checkpoint(tmp_path / "c.safetensors", m, norm, {"step": "5", "note": {"a": 1}})
+    m2, norm2, meta = load_checkpoint(path)
+    assert m2.cfg == cfg and meta["step"] == 5 and meta["note"] == {"a": 1}
+    x, skel, traj, types = inputs(cfg)
+    assert torch.equal(outputs(m, x, skel, traj, types), outputs(m2, x, skel, traj, types))
+    assert all(np.array_equal(getattr(norm, k), getattr(norm2, k)) for k in norm.__dataclass_fields__)
+    assert not list(tmp_path.glob("*.tmp"))  # atomic write left no temporary file
+
+
+def test_config_json_roundtrip_and_validation():
+    cfg = small_cfg((1, 2, 4))
+    assert CCNetConfig.from_json(cfg.to_json()) == cfg
+    with pytest.raises(ValueError):
+        CCNetConfig(kernel_size=3)
