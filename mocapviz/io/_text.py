@@ -67,7 +67,7 @@ def fast_number_table(data: bytes) -> np.ndarray | None:
     Why np.loadtxt and not a hand-written parser: measured on the real files (96-column
     CMU frames, 99-column H3.6M lines), numpy's C loadtxt parses ~65 MB/s with values
     equal to Python's ``float(str)`` (it uses the same correctly rounded conversion;
-    tests/test_io_bvh.py checks every value of the real data). A vectorised numpy
+    tests/test_io_bvh.py checks every CMU value and a sample of H3.6M). A vectorised numpy
     byte-level decimal parser was written and measured at 10-25 MB/s (small 2-D
     reductions over tokens dominate), pandas' C reader at ~30 MB/s on 96 columns
     (per-column overhead) and ``np.array(text.split(), float)`` at ~40 MB/s.
