@@ -73,3 +73,15 @@ def test_vertex_subset_is_fixed_and_spread(body):
     s = body.vertex_subset()
     assert len(s) == 1024 and len(np.unique(s)) == 1024
     np.testing.assert_array_equal(s[:4], [0, 13029, 9686, 2426])
+
+
+def test_mesh_cycles_batch_equals_one_by_one(body, walk):
+    from mocapviz.bodies.retarget import retarget
+    tall = NEUTRAL_BETA.copy()
+    tall[BETA_LABELS.index("height")] = 0.9
+    betas = np.stack([NEUTRAL_BETA, tall])
+    ms = [retarget(walk[i:i + 5], body.rest_skeleton(b)) for i, b in zip((0, 50), betas)]
+    batch = body.mesh_cycles(betas, np.stack([m.rotations for m in ms]), np.stack([m.root_positions for m in ms]))
+    for k, (m, b) in enumerate(zip(ms, betas)):
+        one = body.mesh(b, m.rotations, m.root_positions).vertices
+        assert torch.allclose(batch[k], one, atol=1e-5)

@@ -226,6 +226,23 @@ class BodyModel:
         bone_poses = out["bone_poses"]
         return BodyMesh(out["vertices"], bone_poses[..., :3, 3] if joints else None)
 
+    def mesh_cycles(self, betas, rotations, root_positions) -> torch.Tensor:
+        """Mesh several sequences in one batch: betas (B, 6), rotations (B, F, J, 3, 3),
+        roots (B, F, 3) -> vertices (B, F, V, 3). Each body's rest shape is computed once;
+        posing and skinning run on all B x F frames together."""
+        betas = self._beta(betas)
+        rot = torch.as_tensor(rotations, dtype=torch.float32)
+        root = torch.as_tensor(root_positions, dtype=torch.float32)
+        n_b, n_f = rot.shape[:2]
+        if betas.shape[0] != n_b:
+            raise ValueError(f"{betas.shape[0]} betas for {n_b} sequences")
+        pose = self.pose_parameters(rot.reshape((n_b * n_f,) + rot.shape[2:]), root.reshape(n_b * n_f, 3))
+        with torch.no_grad():
+            rest = self.anny.get_rest_model(self.blendshape_coefficients(betas))
+            transforms, _ = self.anny.get_bone_transforms(pose, rest["rest_bone_poses"].repeat_interleave(n_f, 0))
+            verts = self.anny.get_skinned_vertices(rest["rest_vertices"].repeat_interleave(n_f, 0), transforms)
+        return verts.reshape(n_b, n_f, -1, 3)
+
     @functools.cached_property
     def _anny_order(self) -> list[int]:
         return [BETA_LABELS.index(k) for k in self.anny.phenotype_labels]
