@@ -176,7 +176,6 @@ def read_bvh(path: str | Path, length_unit: float | None = None, text: str | Non
     if len(set(names)) != n:
         dup = next(j for k, j in enumerate(joints) if j.name in names[:k])
         raise MocapFormatError(path, dup.line, f"duplicate joint name {dup.name!r}")
-    rotations = np.broadcast_to(np.eye(3), (n_frames, n, 3, 3)).copy()
     translations = {}
     col = 0
     by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
@@ -195,8 +194,13 @@ def read_bvh(path: str | Path, length_unit: float | None = None, text: str | Non
                 trans[:, _POS[c]] = values[:, col + i]
             translations[k] = trans
         col += len(chans)
-    for order, (idx, cols) in by_order.items():  # one batched conversion per Euler order
-        rotations[:, idx] = euler_to_matrix(values[:, cols], order)
+    if len(by_order) == 1 and len(next(iter(by_order.values()))[0]) == n:  # the usual file
+        order, (_, cols) = next(iter(by_order.items()))
+        rotations = euler_to_matrix(values[:, cols], order)
+    else:
+        rotations = np.broadcast_to(np.eye(3), (n_frames, n, 3, 3)).copy()
+        for order, (idx, cols) in by_order.items():  # one batched conversion per Euler order
+            rotations[:, idx] = euler_to_matrix(values[:, cols], order)
 
     offsets = np.array([j.offset for j in joints])
     parents = np.array([j.parent for j in joints])
