@@ -160,7 +160,8 @@ def trajectory_control(root: np.ndarray, theta: np.ndarray, fps: float = FPS) ->
     """c^d per frame (F, 12): future root ground positions in the frame's heading frame."""
     n = len(root)
     tail = max(2, int(round(0.25 * fps)))
-    v = (root[-1] - root[max(0, n - tail)]) / max(1, min(tail, n - 1))
+    first = max(0, n - 1 - tail)
+    v = (root[-1] - root[first]) / max(1, n - 1 - first)
     extra = root[-1] + v[None] * np.arange(1, TRAJ_STEPS[-1] + 1)[:, None]
     path = np.concatenate([root, extra])
     out = []

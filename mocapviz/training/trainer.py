@@ -76,7 +76,7 @@ class TrainConfig:
 TRAIN_CONFIGS = {
     "quick": TrainConfig(size="quick", steps=1200, batch_size=16, lr=1e-3, lr_final=1e-5,
                          eval_every=200, checkpoint_every=200),
-    "default": TrainConfig(size="default", steps=3500, batch_size=32, lr=1e-3, lr_final=1e-5),
+    "default": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }
@@ -88,8 +88,8 @@ class WindowData:
     ``ds`` is a :class:`data_prep.ccnet_dataset.CCNetDataset` (anything with the same fields).
     """
 
-    def __init__(self, ds, window: int):
-        norm = ds.normaliser
+    def __init__(self, ds, window: int, normaliser=None):
+        norm = normaliser or ds.normaliser
         self.window = window
         self.layout = ds.layout
         self.x = torch.from_numpy(norm.norm_x(ds.x))
