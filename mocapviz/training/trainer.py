@@ -187,7 +187,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         start = int(meta["step"])
         rows = _read_csv(csv_path, start)
     model.train()
-    net = torch.nn.parallel.DistributedDataParallel(model) if world > 1 else model
+    # static_graph: the last block's residual 1x1 conv feeds nothing (only its skip is used)
+    net = torch.nn.parallel.DistributedDataParallel(model, static_graph=True) if world > 1 else model
     per_rank = max(1, cfg.batch_size // world)
     meta = dict(train_config=cfg.to_json(), dataset=json.dumps(_dataset_meta(ds)))
     end = cfg.steps if stop_after is None else min(cfg.steps, stop_after)
@@ -249,12 +250,17 @@ def main(argv=None) -> int:
     p.add_argument("--config", default="quick", choices=sorted(TRAIN_CONFIGS))
     p.add_argument("--out", required=True)
     p.add_argument("--steps", type=int)
+    p.add_argument("--batch-size", type=int)
+    p.add_argument("--eval-every", type=int)
     p.add_argument("--export", help="also write a model-only checkpoint here")
     p.add_argument("--no-resume", action="store_true")
     a = p.parse_args(argv)
     cfg = TRAIN_CONFIGS[a.config]
-    if a.steps:
-        cfg = replace(cfg, steps=a.steps)
+    for name in ("steps", "batch_size", "eval_every"):
+        if getattr(a, name):
+            cfg = replace(cfg, **{name: getattr(a, name)})
+    if a.eval_every:
+        cfg = replace(cfg, checkpoint_every=a.eval_every)
     rank = int(os.environ.get("RANK", "0"))
     ds = build_dataset(DatasetConfig(), progress=rank == 0)
     ckpt = train(ds, cfg, a.out, resume=not a.no_resume)
