@@ -43,7 +43,7 @@ def test_source_rest_pose_gives_source_bone_directions(body, clips, clip):
     """A mocap rest pose (T-like) on anny's A-pose body: every moving bone points the same way."""
     src_sk = clips[clip].skeleton
     tgt = body.rest_skeleton(NEUTRAL_BETA)
-    out = retarget(_rest_motion(src_sk), tgt)
+    out = retarget(_rest_motion(src_sk), tgt, ik_ankles=False)  # the rest alignment alone
     ps, pt = _rest_motion(src_sk).positions()[0], out.positions()[0]
     checked = 0
     for j, name in enumerate(tgt.names):
@@ -68,3 +68,20 @@ def test_real_clip_joint_error_and_foot_sliding(body, clips, clip):
     assert rep["joint_err_cm"] < 6.5, rep
     assert rep["contact_frames"] > 50
     assert rep["slide_anny_cm_s"] <= rep["slide_source_cm_s"] * 1.05, rep
+
+
+def test_ankles_follow_the_source_with_ik(body, clips):
+    """Two-bone IK: anny's ankles land on the source ankles; hips and foot orientation unchanged."""
+    from mocapviz.kinematics import forward_kinematics
+    m = clips["07_01"]
+    tgt = body.rest_skeleton(NEUTRAL_BETA)
+    with_ik, without = retarget(m, tgt), retarget(m, tgt, ik_ankles=False)
+    ps, pa, p0 = m.positions(), with_ik.positions(), without.positions()
+    for name in ("LeftFoot", "RightFoot"):
+        np.testing.assert_allclose(pa[:, tgt.index(name)], ps[:, m.skeleton.index(name)], atol=1e-6)
+        assert np.abs(p0[:, tgt.index(name)] - ps[:, m.skeleton.index(name)]).max() > 0.01  # IK did something
+    for name in ("LeftUpLeg", "RightUpLeg", "Head", "LeftHand"):
+        np.testing.assert_allclose(pa[:, tgt.index(name)], p0[:, tgt.index(name)], atol=1e-9)
+    _, g_ik = forward_kinematics(with_ik.rotations, with_ik.root_positions, tgt.offsets, tgt.parents, True)
+    _, g_0 = forward_kinematics(without.rotations, without.root_positions, tgt.offsets, tgt.parents, True)
+    np.testing.assert_allclose(g_ik[:, tgt.index("LeftFoot")], g_0[:, tgt.index("LeftFoot")], atol=1e-9)

@@ -22,6 +22,9 @@ Method (global rotation transfer with a rest alignment):
 3. Root: anny's Hips head is translated so that the midpoint of its hip joints follows the
    source's hip midpoint exactly (the Hips joint itself sits ~10 cm higher in CMU than in
    anny, so matching it would lift the feet).
+4. Ankles: two-bone IK on each leg (hip and knee, knee plane kept, foot orientation kept)
+   puts anny's ankles on the source's ankles in every frame, so leg-length differences left
+   by the shape fit do not turn into foot sliding.
 """
 
 from __future__ import annotations
@@ -128,11 +131,57 @@ def hip_midpoint(skeleton: Skeleton, positions: np.ndarray) -> np.ndarray:
     return 0.5 * (positions[..., skeleton.index("LeftUpLeg"), :] + positions[..., skeleton.index("RightUpLeg"), :])
 
 
-def retarget(motion: Motion, target: Skeleton, Q: np.ndarray | None = None) -> Motion:
+def _batch_min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Smallest rotations (N, 3, 3) taking directions a (N, 3) to b (N, 3) (not opposite)."""
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    v = np.cross(a, b)
+    c = np.einsum("ni,ni->n", a, b)
+    vx = np.zeros(a.shape[:-1] + (3, 3))
+    vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    vx[..., 1, 0], vx[..., 2, 0], vx[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return np.eye(3) + vx + vx @ vx / np.maximum(1 + c, 1e-9)[..., None, None]
+
+
+LEGS = (("LeftUpLeg", "LeftLeg", "LeftFoot"), ("RightUpLeg", "RightLeg", "RightFoot"))
+
+
+def two_bone_ik(glob: np.ndarray, pos: np.ndarray, skeleton: Skeleton, targets: dict) -> np.ndarray:
+    """Bend hip and knee so that each ankle reaches its target (F, 3), keeping the hips
+    where they are, the knee's bending plane, and every other global rotation (the foot keeps
+    its orientation). ``glob``/``pos``: global rotations (F, J, 3, 3) and positions (F, J, 3).
+    Returns the new global rotations; unreachable targets are approached along the leg line."""
+    glob = glob.copy()
+    for hip_n, knee_n, ankle_n in LEGS:
+        if ankle_n not in targets:
+            continue
+        h, k, a = (skeleton.index(n) for n in (hip_n, knee_n, ankle_n))
+        H, K, A, T = pos[:, h], pos[:, k], pos[:, a], targets[ankle_n]
+        l1, l2 = np.linalg.norm(skeleton.offsets[k]), np.linalg.norm(skeleton.offsets[a])
+        ht = T - H
+        d = np.clip(np.linalg.norm(ht, axis=-1), abs(l1 - l2) + 1e-4, l1 + l2 - 1e-4)
+        u = ht / np.linalg.norm(ht, axis=-1, keepdims=True)
+        bend = (K - H) - np.einsum("ni,ni->n", K - H, u)[:, None] * u  # pole: the current knee side
+        bend_n = np.linalg.norm(bend, axis=-1, keepdims=True)
+        fallback = np.cross(u, glob[:, h, :, 0])  # a straight leg: bend forward about the thigh's x axis
+        bend = np.where(bend_n > 1e-6, bend / np.maximum(bend_n, 1e-12), fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
+        cos_a = np.clip((l1 ** 2 + d ** 2 - l2 ** 2) / (2 * l1 * d), -1.0, 1.0)
+        K_new = H + l1 * (cos_a[:, None] * u + np.sqrt(1 - cos_a ** 2)[:, None] * bend)
+        r1 = _batch_min_rotation(K - H, K_new - H)
+        glob[:, h] = r1 @ glob[:, h]
+        shin_old = np.einsum("nij,nj->ni", r1, A - K)
+        r2 = _batch_min_rotation(shin_old, H + d[:, None] * u - K_new)
+        glob[:, k] = r2 @ r1 @ glob[:, k]
+    return glob
+
+
+def retarget(motion: Motion, target: Skeleton, Q: np.ndarray | None = None, ik_ankles: bool = True) -> Motion:
     """``motion`` on the ``target`` skeleton (e.g. ``BodyModel.rest_skeleton(beta)``).
 
     Returns a Motion on ``target`` (same frames and fps) whose FK gives the anny joints;
-    mesh it with ``BodyModel.mesh(beta, m.rotations, m.root_positions)``.
+    mesh it with ``BodyModel.mesh(beta, m.rotations, m.root_positions)``. With ``ik_ankles``
+    the hips and knees are then bent (two-bone IK) so that anny's ankles follow the source
+    ankles exactly: leg-length differences of a few cm would otherwise make planted feet slide.
     """
     src = motion.skeleton
     for name in STATIC_JOINTS:
@@ -157,6 +206,11 @@ def retarget(motion: Motion, target: Skeleton, Q: np.ndarray | None = None) -> M
     local[:, 1:] = np.swapaxes(glob[:, target.parents[1:]], -1, -2) @ glob[:, 1:]
     zero_root = forward_kinematics(local, np.zeros((motion.n_frames, 3)), target.offsets, target.parents)
     root = hip_midpoint(src, src_pos) - hip_midpoint(target, zero_root)
+    if ik_ankles:
+        pos = forward_kinematics(local, root, target.offsets, target.parents)
+        targets = {leg[2]: src_pos[:, src.index(leg[2])] for leg in LEGS if leg[2] in src.names}
+        glob = two_bone_ik(glob, pos, target, targets)
+        local[:, 1:] = np.swapaxes(glob[:, target.parents[1:]], -1, -2) @ glob[:, 1:]
     out = Motion(target, local, root, motion.fps, name=motion.name, meta=dict(motion.meta))
     out.meta["retargeted_from"] = motion.name
     return out
