@@ -14,7 +14,7 @@ from data_prep.body4d_dataset import Body4DConfig, build_dataset, load_dataset
 @pytest.fixture(scope="module")
 def built(data_dir, tmp_path_factory):
     cache = tmp_path_factory.mktemp("body4d")
-    cfg = Body4DConfig(subjects=("cmu07", "cmu09"), clips_per_type=1, fit_steps=40)
+    cfg = Body4DConfig(subjects=("cmu07", "cmu09"), clips_per_type=1, fit_steps=40, mirror=True)
     ds = build_dataset(cfg, data_dir, cache_dir=cache, progress=False)
     return cfg, ds, cache
 
@@ -32,6 +32,15 @@ def test_layout_ranges_and_split(built):
     assert set(ds.cycles.loc[ds.cycles.subject == "cmu07", "split"]) == {"train"}
     assert (ds.subjects.err_after_cm < ds.subjects.err_before_cm).all()
     assert ds.meta["chi_joints"][0] == "Hips" and len(ds.meta["chi_joints"]) == 21
+
+
+def test_mirror_augmentation_swaps_the_cycle_sides(built):
+    _, ds, _ = built
+    c = ds.cycles
+    orig = {(r.clip, r.start, r.end, r.side) for r in c[~c.mirrored].itertuples()}
+    mirr = {(r.clip, r.start, r.end, {"L": "R", "R": "L"}[r.side]) for r in c[c.mirrored].itertuples()}
+    assert orig and orig == mirr
+    assert ds.counts().loc["total", "total"] == len(orig)  # counts exclude the augmentation
 
 
 def test_cache_round_trip(built, data_dir):
