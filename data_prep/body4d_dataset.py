@@ -292,7 +292,12 @@ def main(argv=None) -> int:
         config = dataclasses.replace(config, mirror=True)
     ds = build_dataset(config, a.data_dir, cache=not a.no_cache)
     with pd.option_context("display.width", 200, "display.max_columns", 40):
+        print("shape fit per subject (segment-length error, cm; fitted beta):")
         print(ds.subjects.round(3).to_string(index=False))
+        print("\nretargeting per source and type (joint error cm over every frame; foot sliding cm/s):")
+        cols = ["joint_err_cm", "joint_err_max_cm", "slide_source_cm_s", "slide_anny_cm_s"]
+        print(ds.clips.groupby(["source", "type"])[cols].mean().round(2).to_string())
+        print("\ncycles per motion type and subject (without mirrored copies):")
         print(ds.counts().to_string())
     print(summary(ds))
     return 0
