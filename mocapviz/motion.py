@@ -20,6 +20,10 @@ class Motion:
     rotations: (F, J, 3, 3) local joint rotations (global = parent_global @ local);
     root_positions: (F, 3) the root joint's translation; fps: frames per second.
     ``meta`` carries provenance (source file, subject, length unit of the file, ...).
+
+    Readers may pass ``rotations`` as a zero-argument function: the matrices are then
+    computed on first access (a file's Euler angles cost as much to convert as to parse,
+    and scans that need only the skeleton or the frame count never pay for them).
     """
 
     skeleton: Skeleton
@@ -30,17 +34,36 @@ class Motion:
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        self.rotations = np.asarray(self.rotations, dtype=np.float64)
         self.root_positions = np.asarray(self.root_positions, dtype=np.float64)
-        f, j = self.rotations.shape[:2]
-        if self.rotations.shape[2:] != (3, 3) or j != self.skeleton.n_joints:
-            raise ValueError(f"rotations must be (F, {self.skeleton.n_joints}, 3, 3)")
-        if self.root_positions.shape != (f, 3):
+        if self.root_positions.ndim != 2 or self.root_positions.shape[1] != 3:
             raise ValueError("root_positions must be (F, 3)")
+        if callable(self.rotations):
+            self._rotation_factory = self.rotations
+            del self.rotations  # __getattr__ computes it on first access
+        else:
+            self._check_rotations(self.rotations)
+
+    def _check_rotations(self, rotations) -> np.ndarray:
+        rotations = np.asarray(rotations, dtype=np.float64)
+        if rotations.shape != (self.n_frames, self.skeleton.n_joints, 3, 3):
+            raise ValueError(f"rotations must be ({self.n_frames}, {self.skeleton.n_joints}, 3, 3), "
+                             f"got {rotations.shape}")
+        self.rotations = rotations
+        return rotations
+
+    def __getattr__(self, name):
+        # Only reached when normal lookup fails: i.e. for rotations not yet computed.
+        if name == "rotations" and "_rotation_factory" in self.__dict__:
+            return self._check_rotations(self.__dict__.pop("_rotation_factory")())
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __getstate__(self):  # pickling needs the matrices, not the reader's closure
+        self.rotations  # noqa: B018 (computes pending rotations)
+        return self.__dict__
 
     @property
     def n_frames(self) -> int:
-        return self.rotations.shape[0]
+        return self.root_positions.shape[0]
 
     @property
     def duration(self) -> float:

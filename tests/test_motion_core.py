@@ -158,3 +158,20 @@ def test_configuration_hand_computed():
     c = sk.configuration()
     # lowest point is the end site at y = -0.95; root height 0.95; then root-relative joints
     np.testing.assert_allclose(c, [0.95, 0, -0.5, 0, 0.1, -0.9, 0])
+
+
+def test_lazy_rotations_equal_eager_and_survive_pickle(data_dir):
+    import pickle
+
+    from mocapviz.io.bvh import read_bvh
+    from mocapviz.motion import Motion
+
+    lazy = read_bvh(data_dir / "cmu" / "35" / "35_01.bvh")
+    assert "rotations" not in lazy.__dict__  # not computed yet
+    assert lazy.n_frames == 359 and lazy.duration == pytest.approx(358 / 120)
+    eager = Motion(lazy.skeleton, lazy.rotations, lazy.root_positions, lazy.fps)
+    clone = pickle.loads(pickle.dumps(read_bvh(data_dir / "cmu" / "35" / "35_01.bvh")))
+    np.testing.assert_array_equal(clone.rotations, eager.rotations)
+    bad = Motion(lazy.skeleton, lambda: np.zeros((3, 31, 3, 3)), lazy.root_positions, lazy.fps)
+    with pytest.raises(ValueError, match="rotations must be"):
+        bad.rotations

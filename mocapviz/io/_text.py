@@ -21,13 +21,16 @@ LENGTH_UNITS = {
 TYPICAL_HEIGHT_M = 1.7
 
 
-def read_text(path: str | Path) -> str:
-    """File text; bytes that are not UTF-8 (HDM05's Latin-1 comments) decode as Latin-1."""
-    raw = Path(path).read_bytes()
+def decode(raw: bytes) -> str:
+    """UTF-8, or Latin-1 for bytes that are not UTF-8 (HDM05's comments)."""
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError:
         return raw.decode("latin-1")
+
+
+def read_text(path: str | Path) -> str:
+    return decode(Path(path).read_bytes())
 
 
 def guess_length_unit(height_in_file_units: float) -> float:

@@ -311,7 +311,6 @@ def read_amc(amc_path: str | Path, asf: AsfSkeleton | str | Path, fps: float = 1
     values, n_frames = _parse_amc_frames(text, amc_path, bone_dofs)
 
     skeleton = asf.to_skeleton()
-    rotations = np.broadcast_to(np.eye(3), (n_frames, skeleton.n_joints, 3, 3)).copy()
     root_positions = np.zeros((n_frames, 3))
     # Group joints by their (padded) Euler order so each order is one batched conversion.
     groups: dict[str, tuple[list[int], list[np.ndarray]]] = {}
@@ -331,12 +330,16 @@ def read_amc(amc_path: str | Path, asf: AsfSkeleton | str | Path, fps: float = 1
         groups.setdefault(order, ([], []))
         groups[order][0].append(j)
         groups[order][1].append(angles)
-    axes = np.array([asf.axis_matrix(name) for name in skeleton.names])
-    for order, (idx, angles) in groups.items():
-        stacked = np.stack(angles, axis=1)
-        if not degrees:
-            stacked = np.degrees(stacked)
-        # Acclaim lists the first-applied axis first: R = R[order[2]] R[order[1]] R[order[0]].
-        rotations[:, idx] = euler_to_matrix(stacked[..., ::-1], order[::-1], axes=axes[idx])
+
+    def rotations() -> np.ndarray:  # evaluated by Motion on first use
+        out = np.broadcast_to(np.eye(3), (n_frames, skeleton.n_joints, 3, 3)).copy()
+        axes = np.array([asf.axis_matrix(name) for name in skeleton.names])
+        for order, (idx, angles) in groups.items():
+            stacked = np.stack(angles, axis=1)
+            if not degrees:
+                stacked = np.degrees(stacked)
+            # Acclaim lists the first-applied axis first: R = R[order[2]] R[order[1]] R[order[0]].
+            out[:, idx] = euler_to_matrix(stacked[..., ::-1], order[::-1], axes=axes[idx])
+        return out
     meta = {"source": str(amc_path), "format": "amc", "asf": asf.path, "length_unit": asf.length_unit}
     return Motion(skeleton, rotations, root_positions, fps, name=Path(str(amc_path)).stem, meta=meta)

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapviz.errors import MocapFormatError
-from mocapviz.io._text import guess_length_unit, parse_number_lines, read_text
+from mocapviz.io._text import decode, guess_length_unit, parse_number_lines
 from mocapviz.motion import Motion
 from mocapviz.rotations import euler_to_matrix, matrix_to_euler
 from mocapviz.skeleton import Skeleton
@@ -30,7 +30,7 @@ _POS = {"xposition": 0, "yposition": 1, "zposition": 2}
 class _Joint:
     name: str
     parent: int
-    offset: np.ndarray
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     channels: list[str] = field(default_factory=list)
     line: int = 0
 
@@ -42,95 +42,113 @@ def _frame_rate(frame_time: float) -> float:
     return float(nearest) if nearest > 0 and abs(fps - nearest) < 1e-3 * nearest else fps
 
 
-def _parse_hierarchy(lines: list[str], path) -> tuple[list[_Joint], list[tuple[int, np.ndarray]], int]:
-    """Joints, End Sites and the index of the MOTION line. Lines are 0-based here."""
+def _offset(parts: list[str], path, lineno: int) -> tuple[float, float, float]:
+    if len(parts) != 4:
+        raise MocapFormatError(path, lineno, "OFFSET needs 3 numbers")
+    try:
+        off = (float(parts[1]), float(parts[2]), float(parts[3]))
+    except ValueError:
+        raise MocapFormatError(path, lineno, f"not a number in OFFSET: {' '.join(parts[1:])}") from None
+    if not (math.isfinite(off[0]) and math.isfinite(off[1]) and math.isfinite(off[2])) or "_" in parts[1] + parts[2] + parts[3]:
+        raise MocapFormatError(path, lineno, "OFFSET is not a finite number")
+    return off
+
+
+_CHANNEL_LINES: dict[tuple[str, ...], list[str]] = {}  # files repeat a few layouts per joint
+
+
+def _channels(parts: list[str], path, lineno: int) -> list[str]:
+    known = _CHANNEL_LINES.get(tuple(parts))
+    if known is not None:
+        return list(known)
+    try:
+        n = int(parts[1])
+    except (IndexError, ValueError):
+        raise MocapFormatError(path, lineno, "CHANNELS needs a count") from None
+    names = [p.lower() for p in parts[2:]]
+    if n != len(names) or not all(c in _ROT or c in _POS for c in names):
+        raise MocapFormatError(path, lineno, f"bad CHANNELS line: {' '.join(parts[1:])}")
+    rot = [c for c in names if c in _ROT]
+    if len(rot) not in (0, 3) or len(set(rot)) != len(rot):
+        raise MocapFormatError(path, lineno, "a joint needs all three rotation channels or none")
+    if len(_CHANNEL_LINES) < 256:
+        _CHANNEL_LINES[tuple(parts)] = names
+    return list(names)
+
+
+def _parse_hierarchy(lines: list[str], path) -> tuple[list[_Joint], list[tuple[int, tuple]], int]:
+    """Joints, End Sites and the index of the MOTION line. Lines are 0-based here.
+
+    A plain loop over lines keyed on the first word: headers are a few hundred lines, and
+    this runs once per file, so it is written to do little per line (no regex, no arrays).
+    """
     joints: list[_Joint] = []
-    end_sites: list[tuple[int, np.ndarray]] = []
+    end_sites: list[tuple[int, tuple]] = []
     stack: list[int] = []  # joint index per open brace, -2 for an End Site block
-    pending: tuple[str, str] | None = None  # ("joint", name) or ("end", "") awaiting "{"
-    current_end: int | None = None
-    i = 0
-    while i < len(lines):
-        parts = lines[i].split()
-        lineno = i + 1
-        i += 1
+    pending: str | None = None  # a joint name, or "" for an End Site, awaiting "{"
+    for i, line in enumerate(lines):
+        parts = line.split()
         if not parts:
             continue
-        key = parts[0].upper()
-        if key == "HIERARCHY":
+        lineno = i + 1
+        key = parts[0]
+        if key == "{":
+            if pending is None:
+                raise MocapFormatError(path, lineno, "'{' without ROOT, JOINT or End Site")
+            if pending:
+                parent = stack[-1] if stack else -1
+                if parent == -2:
+                    raise MocapFormatError(path, lineno, "joint inside an End Site")
+                joints.append(_Joint(pending, parent, line=lineno))
+                stack.append(len(joints) - 1)
+            else:
+                end_sites.append((stack[-1], (0.0, 0.0, 0.0)))
+                stack.append(-2)
+            pending = None
             continue
-        if key == "MOTION":
-            if stack or pending:
-                raise MocapFormatError(path, lineno, "unbalanced braces before MOTION")
-            if not joints:
-                raise MocapFormatError(path, lineno, "no ROOT joint in HIERARCHY")
-            return joints, end_sites, i - 1
-        if key in ("ROOT", "JOINT"):
+        if key == "}":
+            if not stack:
+                raise MocapFormatError(path, lineno, "unbalanced '}'")
+            stack.pop()
+            continue
+        key = key.upper()
+        if key == "OFFSET":
+            if not stack:
+                raise MocapFormatError(path, lineno, "OFFSET outside a joint")
+            if stack[-1] == -2:
+                end_sites[-1] = (end_sites[-1][0], _offset(parts, path, lineno))
+            else:
+                joints[stack[-1]].offset = _offset(parts, path, lineno)
+        elif key == "CHANNELS":
+            if not stack or stack[-1] == -2:
+                raise MocapFormatError(path, lineno, "CHANNELS outside a joint")
+            joints[stack[-1]].channels = _channels(parts, path, lineno)
+        elif key in ("ROOT", "JOINT"):
             if len(parts) < 2:
                 raise MocapFormatError(path, lineno, f"{key} without a name")
             if (key == "ROOT") != (not stack):
                 raise MocapFormatError(path, lineno, f"{key} at the wrong nesting depth")
-            pending = ("joint", " ".join(parts[1:]))
+            pending = " ".join(parts[1:])
         elif key == "END":
             if not stack:
                 raise MocapFormatError(path, lineno, "End Site outside a joint")
-            pending = ("end", "")
-        elif key == "{":
-            if pending is None:
-                raise MocapFormatError(path, lineno, "'{' without ROOT, JOINT or End Site")
-            if pending[0] == "joint":
-                parent = stack[-1] if stack else -1
-                if parent == -2:
-                    raise MocapFormatError(path, lineno, "joint inside an End Site")
-                joints.append(_Joint(pending[1], parent, np.zeros(3), line=lineno))
-                stack.append(len(joints) - 1)
-            else:
-                end_sites.append((stack[-1], np.zeros(3)))
-                current_end = len(end_sites) - 1
-                stack.append(-2)
-            pending = None
-        elif key == "}":
-            if not stack:
-                raise MocapFormatError(path, lineno, "unbalanced '}'")
-            stack.pop()
-        elif key == "OFFSET":
-            if len(parts) != 4 or not stack:
-                raise MocapFormatError(path, lineno, "OFFSET needs 3 numbers inside a joint")
-            try:
-                off = [float(v) for v in parts[1:]]
-            except ValueError:
-                raise MocapFormatError(path, lineno, f"not a number in OFFSET: {' '.join(parts[1:])}") from None
-            if not all(map(math.isfinite, off)) or any("_" in v for v in parts[1:]):
-                raise MocapFormatError(path, lineno, "OFFSET is not a finite number")
-            off = np.array(off)
-            if stack[-1] == -2:
-                end_sites[current_end] = (end_sites[current_end][0], off)
-            else:
-                joints[stack[-1]].offset = off
-        elif key == "CHANNELS":
-            if not stack or stack[-1] == -2:
-                raise MocapFormatError(path, lineno, "CHANNELS outside a joint")
-            try:
-                n = int(parts[1])
-            except (IndexError, ValueError):
-                raise MocapFormatError(path, lineno, "CHANNELS needs a count") from None
-            names = [p.lower() for p in parts[2:]]
-            if n != len(names) or any(c not in _ROT and c not in _POS for c in names):
-                raise MocapFormatError(path, lineno, f"bad CHANNELS line: {' '.join(parts[1:])}")
-            rot = [c for c in names if c in _ROT]
-            if len(rot) not in (0, 3) or len(set(rot)) != len(rot):
-                raise MocapFormatError(path, lineno, "a joint needs all three rotation channels or none")
-            joints[stack[-1]].channels = names
-        else:
+            pending = ""
+        elif key == "MOTION":
+            if stack or pending is not None:
+                raise MocapFormatError(path, lineno, "unbalanced braces before MOTION")
+            if not joints:
+                raise MocapFormatError(path, lineno, "no ROOT joint in HIERARCHY")
+            return joints, end_sites, i
+        elif key != "HIERARCHY":
             raise MocapFormatError(path, lineno, f"unexpected {parts[0]!r} in HIERARCHY")
     raise MocapFormatError(path, len(lines), "no MOTION section (truncated file?)")
 
 
-_MOTION_RE = re.compile(r"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
-_FRAME_TIME_RE = re.compile(r"^[ \t]*Frame Time[^\n]*(\n|$)", re.MULTILINE | re.IGNORECASE)
+_MOTION_RE = re.compile(rb"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
+_FRAME_TIME_RE = re.compile(rb"^[ \t]*Frame Time[^\n]*(\n|$)", re.MULTILINE | re.IGNORECASE)
 
 
-def _motion_header_end(text: str) -> int:
+def _motion_header_end(text: bytes) -> int:
     """Offset just past the "Frame Time" line that follows MOTION (or len(text) if absent)."""
     m = _MOTION_RE.search(text)
     if m is None:
@@ -158,16 +176,16 @@ def read_bvh(path: str | Path, length_unit: float | None = None, text: str | Non
     length_unit: metres per file unit; ``None`` guesses among m, cm, mm, inch and the CMU
     ASF unit by the skeleton's height (the CMU BVH files come out in the CMU unit).
     """
-    text = read_text(path) if text is None else text
-    # Split off the header (up to "Frame Time") without splitting the frames into lines.
-    head_end = _motion_header_end(text)
-    lines = text[:head_end].split("\n")
+    raw = Path(path).read_bytes() if text is None else text.encode("utf-8", "surrogateescape")
+    # Decode and split only the header (up to "Frame Time"); the frames stay bytes.
+    head_end = _motion_header_end(raw)
+    lines = decode(raw[:head_end]).split("\n")
     joints, ends, motion_line = _parse_hierarchy(lines, path)
     if motion_line + 2 >= len(lines):
         raise MocapFormatError(path, len(lines), "MOTION section without Frames and Frame Time")
     n_frames = _header_value(lines[motion_line + 1], "Frames", motion_line + 2, path, int)
     frame_time = _header_value(lines[motion_line + 2], "Frame Time", motion_line + 3, path, float)
-    block = "\n".join(lines[motion_line + 3:]) + text[head_end:]
+    block = "\n".join(lines[motion_line + 3:]).encode("utf-8", "surrogateescape") + raw[head_end:]
     n_channels = sum(len(j.channels) for j in joints)
     values = parse_number_lines(block, n_channels, motion_line + 4, path, n_lines=n_frames)
 
@@ -194,22 +212,28 @@ def read_bvh(path: str | Path, length_unit: float | None = None, text: str | Non
                 trans[:, _POS[c]] = values[:, col + i]
             translations[k] = trans
         col += len(chans)
-    if len(by_order) == 1 and len(next(iter(by_order.values()))[0]) == n:  # the usual file
-        order, (_, cols) = next(iter(by_order.items()))
-        rotations = euler_to_matrix(values[:, cols], order)
-    else:
-        rotations = np.broadcast_to(np.eye(3), (n_frames, n, 3, 3)).copy()
+
+    def rotations() -> np.ndarray:  # evaluated by Motion on first use
+        if len(by_order) == 1 and len(next(iter(by_order.values()))[0]) == n:  # the usual file
+            order, (_, cols) = next(iter(by_order.items()))
+            return euler_to_matrix(values[:, cols], order)
+        out = np.broadcast_to(np.eye(3), (n_frames, n, 3, 3)).copy()
         for order, (idx, cols) in by_order.items():  # one batched conversion per Euler order
-            rotations[:, idx] = euler_to_matrix(values[:, cols], order)
+            out[:, idx] = euler_to_matrix(values[:, cols], order)
+        return out
 
     offsets = np.array([j.offset for j in joints])
     parents = np.array([j.parent for j in joints])
-    skeleton_units = Skeleton(names, parents, offsets, tuple((j, tuple(o)) for j, o in ends))
-    unit = guess_length_unit(skeleton_units.standing_height()) if length_unit is None else length_unit
+    ends = tuple((j, tuple(o)) for j, o in ends)
+    if length_unit is None:
+        length_unit = guess_length_unit(Skeleton(names, parents, offsets, ends).standing_height())
+    unit = length_unit
     root = translations.pop(0, np.tile(offsets[0], (n_frames, 1))) * unit
     # Our skeleton is rigid: position channels on non-root joints are kept for writing back.
-    skeleton = skeleton_units.scaled(unit)
-    skeleton.offsets[0] = 0.0  # the root's place is root_positions
+    rest_offsets = offsets * unit
+    rest_offsets[0] = 0.0  # the root's place is root_positions
+    skeleton = Skeleton(names, parents, rest_offsets,
+                        tuple((j, tuple(v * unit for v in off)) for j, off in ends))
     meta = {"source": str(path), "format": "bvh", "length_unit": unit, "frame_time": frame_time,
             "channels": [j.channels for j in joints], "root_offset": offsets[0] * unit,
             "channel_values": values,
