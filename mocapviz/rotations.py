@@ -3,9 +3,12 @@
 Convention everywhere in mocapviz: rotation matrices act on column vectors, and a joint's
 global rotation is ``parent_global @ local``.
 
-Conversions between rotation vectors, matrices, quaternions and the 6-D form go through
-``roma`` (torch); Euler angles from files go through ``scipy.spatial.transform`` whose
-intrinsic upper-case sequences ("ZYX") mean exactly BVH's channel order R = Rz @ Ry @ Rx.
+Matrix -> rotation vector, quaternion and 6-D Gram-Schmidt go through ``roma`` (torch).
+Two conversions on the file-reading path are written in plain numpy because they run on
+every frame of every joint of a file and roma/scipy cost more in call and tensor overhead
+than the arithmetic: Euler angles (any intrinsic order, BVH's "ZYX" = Rz @ Ry @ Rx) and
+rotation vector -> matrix. Tests check both against scipy and roma; matrix -> Euler (for
+writing BVH) uses scipy.
 """
 
 from __future__ import annotations
