@@ -22,7 +22,7 @@ import torch
 
 from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, Normaliser, _yaw, features_to_motion
 from mocapviz.ik import remove_foot_sliding
-from mocapviz.models.ccnet import CCNet, CCNetStepper
+from mocapviz.models.ccnet import CCNet, CCNetStepper, NumpyStepper
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
 
@@ -31,6 +31,7 @@ from mocapviz.skeleton import Skeleton
 class Generated:
     x: np.ndarray            # (B, T, n_x) raw frame vectors, seed frames first
     n_seed: int
+    x_norm: np.ndarray | None = None   # the same, normalised (what the network saw)
 
     def motion(self, i: int, skeleton: Skeleton, start_root=(0.0, 0.0, 0.0), start_heading: float = 0.0,
                ik: bool = True, include_seed: bool = True, name: str = "generated") -> Motion:
@@ -50,81 +51,110 @@ def path_controls(path_xz: np.ndarray, n: int, root_xz: np.ndarray, heading: np.
 
 
 class Generator:
-    """Batched autoregressive generation with the incremental stepper (or naive recompute)."""
+    """Batched autoregressive generation with the incremental stepper.
+
+    ``backend``: "numpy" (:class:`NumpyStepper`, fastest for a few characters: a frame is ~140
+    tiny calls and numpy's per-call cost is a fraction of torch's) or "torch"
+    (:class:`CCNetStepper`, better for large batches); "auto" picks numpy up to 8 characters.
+    """
 
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
-                 seed: int = 0):
+                 seed: int = 0, backend: str = "auto"):
         self.model = model.eval()
         self.norm = normaliser
         self.batch = batch
         self.sample = sample
-        self.gen = torch.Generator().manual_seed(seed)
+        self.rng = np.random.default_rng(seed)
         self.cfg = model.cfg
         self.layout = FeatureLayout((self.cfg.n_x - 6) // 12, self.cfg.n_types)
-        self.stepper = CCNetStepper(model, batch)
+        self.backend = ("numpy" if batch <= 8 else "torch") if backend == "auto" else backend
+        if self.backend == "numpy":
+            self.stepper = NumpyStepper(model, batch)
+            self._step = self.stepper.step
+        elif self.backend == "torch":
+            self.stepper = CCNetStepper(model, batch)
+            self._step = lambda x, c: self.stepper.step(torch.from_numpy(x), torch.from_numpy(c)).numpy()
+        else:
+            raise ValueError(f"unknown backend {backend!r}")
+        self.keep_outputs = False     # keep every raw step output (tests / benchmark)
+        self.raw_outputs: list[np.ndarray] = []
 
-    def _next_input(self, raw_out: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        out = self.model.split_output(raw_out)
-        mean = out["mean"]
+    def _write_next(self, raw: np.ndarray, dest: np.ndarray) -> np.ndarray:
+        """Frame t+1 into ``dest`` (B, n_x): the mean (or a Gaussian sample) and the contact
+        labels (logit > 0); returns the predicted c^d (normalised), a view of ``raw``."""
+        n, k = self.cfg.n_cont, self.cfg.n_contact
         if self.sample:
-            mean = mean + out["sigma"] * torch.randn(mean.shape, generator=self.gen)
-        contact = (out["contact_logits"] > 0).to(mean.dtype)
-        return torch.cat([mean, contact], -1), out["traj_mean"]
+            sigma = np.maximum(np.exp(-raw[:, n:2 * n]), self.cfg.sigma_min)
+            dest[:, :n] = raw[:, :n] + sigma * self.rng.standard_normal(sigma.shape, dtype=np.float32)
+        else:
+            dest[:, :n] = raw[:, :n]
+        np.greater(raw[:, 2 * n:2 * n + k], 0, out=dest[:, n:], casting="unsafe")
+        return raw[:, 2 * n + k:2 * n + k + self.cfg.n_traj]
 
-    @torch.inference_mode()
     def run(self, seed_x: np.ndarray, skel: np.ndarray, types: np.ndarray, n_frames: int,
             traj: np.ndarray | None = None, path: np.ndarray | None = None,
             seed_traj: np.ndarray | None = None, start_root=None, start_heading=None,
             progress: bool = False) -> Generated:
         """seed_x (B, S, n_x) raw seed frames; skel (B, n_skel) raw c^s; types (B, n_types) or
-        (B, S + n_frames, n_types); traj (B, T_c, 12) raw c^d indexed by frame; path (B, T_p, 2)
-        world X/Z per frame (needs start_root (B, 3), start_heading (B,) of frame -1 of the seed,
-        as the clip's); seed_traj (B, S, 12) raw c^d of the seed frames (default: from ``traj``,
-        ``path`` or zeros)."""
+        (B, S + n_frames, n_types); traj (B, T_c, 12) raw c^d indexed by frame (repeated
+        cyclically); path (B, T_p, 2) world X/Z per frame (needs start_root (B, 3) and
+        start_heading (B,) of the frame before the seed, as the clip's); seed_traj (B, S, 12) raw
+        c^d of the seed frames (default: from ``traj``, ``path``, or the network's prediction)."""
         from tqdm.auto import tqdm
+        with torch.inference_mode():
+            return self._run(seed_x, skel, types, n_frames, traj, path, seed_traj, start_root,
+                             start_heading, progress, tqdm)
+
+    def _run(self, seed_x, skel, types, n_frames, traj, path, seed_traj, start_root, start_heading,
+             progress, tqdm) -> Generated:
         b, s = seed_x.shape[:2]
         total = s + n_frames
         norm = self.norm
-        skel_n = torch.from_numpy(norm.norm_skel(skel))
+        skel_n = norm.norm_skel(skel)
         types = np.asarray(types, dtype=np.float32)
         per_frame_types = types.ndim == 3
         cur_type = types[:, 0] if per_frame_types else types
         self.stepper.reset()
-        self.stepper.set_static(skel_n, torch.from_numpy(cur_type))
-        xs = torch.zeros(b, total, self.cfg.n_x)
-        xs[:, :s] = torch.from_numpy(norm.norm_x(seed_x))
-        traj_n = None if traj is None else torch.from_numpy(norm.norm_traj(traj))
+        self.raw_outputs = []
+        set_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
+            if self.backend == "torch" else self.stepper.set_static
+        set_static(skel_n, cur_type)
+        xs = np.zeros((b, total, self.cfg.n_x), dtype=np.float32)
+        xs[:, :s] = norm.norm_x(seed_x)
+        traj_n = None if traj is None else norm.norm_traj(traj)
+        seed_n = None if seed_traj is None else norm.norm_traj(seed_traj)
         root_b = self.layout.x_blocks["root"]
         if path is not None:
             root_xz = np.asarray(start_root, dtype=np.float64)[:, [0, 2]].copy()
             heading = np.asarray(start_heading, dtype=np.float64).copy()
-        pred_traj = None
+        pred_traj = np.zeros((b, self.cfg.n_traj), dtype=np.float32)
+        n, k = self.cfg.n_cont, self.cfg.n_contact
         for t in tqdm(range(total - 1), desc="generate", disable=not progress):
-            if per_frame_types and t + 1 < total and not np.array_equal(types[:, t + 1], cur_type):
+            if per_frame_types and not np.array_equal(types[:, t + 1], cur_type):
                 cur_type = types[:, t + 1]
-                self.stepper.set_static(skel_n, torch.from_numpy(cur_type))
+                set_static(skel_n, cur_type)
             x_t = xs[:, t]
             if path is not None:  # integrate the root of frame t (raw units) for c^d_{t+1}
-                r = x_t[:, root_b].numpy() * norm.x_std[root_b] + norm.x_mean[root_b]
+                r = x_t[:, root_b] * norm.x_std[root_b] + norm.x_mean[root_b]
                 c, sn = np.cos(heading), np.sin(heading)
                 root_xz += np.stack([c * r[:, 0] + sn * r[:, 1], -sn * r[:, 0] + c * r[:, 1]], 1) / FPS
                 heading += r[:, 2] / FPS
-            if t + 1 < s and seed_traj is not None:
-                c_next = torch.from_numpy(norm.norm_traj(seed_traj[:, t + 1]))
+            if t + 1 < s and seed_n is not None:
+                c_next = seed_n[:, t + 1]
             elif traj_n is not None:
                 c_next = traj_n[:, (t + 1) % traj_n.shape[1]]
             elif path is not None:
-                c_next = torch.from_numpy(norm.norm_traj(path_controls(path, t + 1, root_xz, heading)))
-            elif pred_traj is not None:
-                c_next = pred_traj
+                c_next = norm.norm_traj(path_controls(path, t + 1, root_xz, heading))
             else:
-                c_next = torch.zeros(b, self.cfg.n_traj) if seed_traj is None else \
-                    torch.from_numpy(norm.norm_traj(seed_traj[:, min(t + 1, s - 1)]))
-            raw = self.stepper.step(x_t, c_next)
-            nxt, pred_traj = self._next_input(raw)
+                c_next = pred_traj
+            raw = self._step(x_t, np.ascontiguousarray(c_next))
+            if self.keep_outputs:
+                self.raw_outputs.append(raw.copy())
             if t + 1 >= s:
-                xs[:, t + 1] = nxt
-        return Generated(norm.denorm_x(xs.numpy()), s)
+                pred_traj = self._write_next(raw, xs[:, t + 1]).copy()
+            else:
+                pred_traj = raw[:, 2 * n + k:2 * n + k + self.cfg.n_traj].copy()
+        return Generated(norm.denorm_x(xs), s, xs)
 
 
 @torch.inference_mode()
@@ -153,3 +183,32 @@ def circle_path(n: int, speed: float, radius: float, start_xz=(0.0, 0.0), headin
     rot = _yaw(np.array(heading))
     world = local[:, 0:1] * rot[[0, 2], 0][None] + local[:, 1:2] * rot[[0, 2], 2][None]
     return np.asarray(start_xz)[None] + world
+
+
+def freezing_share(x: np.ndarray, layout: FeatureLayout, train_mean_speed: float, fraction: float = 0.05) -> float:
+    """Share of frames (any leading batch dims) whose mean joint speed is under ``fraction`` of
+    the training data's mean joint speed."""
+    x = np.asarray(x)
+    speed = np.linalg.norm(x[..., layout.x_blocks["vel"]].reshape(x.shape[:-1] + (-1, 3)), axis=-1).mean(-1)
+    return float((speed < fraction * train_mean_speed).mean())
+
+
+@torch.inference_mode()
+def full_recompute_outputs(model: CCNet, norm: Normaliser, gen: Generated, skel: np.ndarray, types: np.ndarray,
+                           traj_n: np.ndarray) -> np.ndarray:
+    """(mean, contact logits, c^d mean) of one full forward pass over a generated sequence, for
+    the equality check: inputs x_0..x_{T-2} with the controls the generator used (traj_n
+    (B, T-1, 12), normalised)."""
+    x = torch.from_numpy(gen.x_norm[:, :-1])
+    out = model(x, torch.from_numpy(norm.norm_skel(skel)), torch.from_numpy(np.asarray(traj_n, np.float32)),
+                torch.from_numpy(np.asarray(types, np.float32)))
+    return torch.cat([out["mean"], out["contact_logits"], out["traj_mean"]], -1).numpy()
+
+
+def step_outputs(gen_raw: list[np.ndarray], cfg) -> tuple[np.ndarray, np.ndarray]:
+    """Stack a generator's kept raw outputs into (mean, contact logits, c^d mean) (B, T-1, .),
+    and the c^d (normalised) each step predicted (B, T-1, 12)."""
+    raw = np.stack(gen_raw, 1)
+    n, k, d = cfg.n_cont, cfg.n_contact, cfg.n_traj
+    traj = raw[..., 2 * n + k:2 * n + k + d]
+    return np.concatenate([raw[..., :n], raw[..., 2 * n:2 * n + k], traj], -1), traj

@@ -1,0 +1,124 @@
+"""CCNet generation speed (incremental vs naive recompute) and freezing, default model, this CPU.
+
+    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_default] [--frames 2000]
+
+One character and 64 at once, frames per second of the autoregressive loop (network step plus
+feeding the mean back), with the incremental stepper and with naive recomputation of the last
+CRL frames per new frame; max |incremental - full forward| over a generated sequence; and the
+freezing share over ten 60 s generated clips (frames whose mean joint speed is under 5% of the
+training mean). The last line is a JSON object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+import torch
+
+from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+from mocapviz import zoo
+from mocapviz.tasks.generate import Generator, clip_types, freezing_share, full_recompute_outputs, step_outputs
+
+
+def seeds(ds, n, batch_types=None):
+    """n test-split clips (round-robin over motion types), for seeds and controls."""
+    test = ds.clips[(ds.clips.split == "test") & ((ds.clips.stop - ds.clips.start) >= 62)]
+    order = test.groupby("type", sort=True).cumcount()
+    rows = test.assign(o=order).sort_values(["o", "type"]).index[:n]
+    return [int(i) for i in rows]
+
+
+def gen_inputs(ds, rows, n_seed, n_types):
+    arrs = [ds.clip_arrays(i) for i in rows]
+    x = np.stack([a["x"][:n_seed] for a in arrs])
+    traj = np.stack([a["traj"][:n_seed] for a in arrs])
+    skel = np.stack([a["skel"] for a in arrs])
+    types = np.concatenate([clip_types(a["type_index"], n_types) for a in arrs])
+    return x, traj, skel, types
+
+
+def time_incremental(model, norm, ds, batch, frames, n_seed=30, backend="auto"):
+    rows = (seeds(ds, 10) * (batch // 10 + 1))[:batch]
+    x, traj, skel, types = gen_inputs(ds, rows, n_seed, model.cfg.n_types)
+    g = Generator(model, norm, batch=batch, backend=backend)
+    g.run(x, skel, types, 50, seed_traj=traj)  # warm up
+    t = time.perf_counter()
+    out = g.run(x, skel, types, frames, seed_traj=traj)
+    dt = time.perf_counter() - t
+    return batch * (frames + n_seed - 1) / dt, out, (x, traj, skel, types)
+
+
+@torch.inference_mode()
+def time_naive(model, norm, ds, batch, frames, n_seed=30):
+    """Each new frame recomputes the network over the last CRL input frames (nn layers)."""
+    rows = (seeds(ds, 10) * (batch // 10 + 1))[:batch]
+    x, traj, skel, types = gen_inputs(ds, rows, n_seed, model.cfg.n_types)
+    crl = model.cfg.receptive_field
+    n, k = model.cfg.n_cont, model.cfg.n_contact
+    xs = torch.zeros(batch, n_seed + frames, model.cfg.n_x)
+    xs[:, :n_seed] = torch.from_numpy(norm.norm_x(x))
+    tr = torch.zeros(batch, n_seed + frames, model.cfg.n_traj)
+    tr[:, 1:n_seed] = torch.from_numpy(norm.norm_traj(traj[:, 1:]))
+    skel_n, types_t = torch.from_numpy(norm.norm_skel(skel)), torch.from_numpy(types)
+    t0 = time.perf_counter()
+    for t in range(n_seed - 1, n_seed + frames - 1):
+        lo = max(0, t + 1 - crl)
+        out = model(xs[:, lo:t + 1], skel_n, tr[:, lo:t + 1], types_t)
+        xs[:, t + 1, :n] = out["mean"][:, -1]
+        xs[:, t + 1, n:] = (out["contact_logits"][:, -1] > 0).float()
+        tr[:, t + 2 if t + 2 < tr.shape[1] else t + 1] = out["traj_mean"][:, -1]
+    return batch * frames / (time.perf_counter() - t0)
+
+
+def main(argv=None) -> dict:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--model", default="ccnet_default")
+    p.add_argument("--frames", type=int, default=2000)
+    p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--freeze-seconds", type=float, default=60.0)
+    a = p.parse_args(argv)
+    torch.set_num_threads(a.threads)
+    model, norm, meta = zoo.load(a.model)
+    ds = build_dataset(DatasetConfig(), progress=False)
+    fps1, out1, (x, traj, skel, types) = time_incremental(model, norm, ds, 1, a.frames)
+    print(f"incremental, 1 character : {fps1:10.0f} frames/s")
+    fps64, _, _ = time_incremental(model, norm, ds, 64, max(200, a.frames // 5))
+    print(f"incremental, 64 characters: {fps64:10.0f} frames/s")
+    naive1 = time_naive(model, norm, ds, 1, max(100, a.frames // 10))
+    print(f"naive recompute, 1        : {naive1:10.0f} frames/s")
+    naive64 = time_naive(model, norm, ds, 64, 40)
+    print(f"naive recompute, 64       : {naive64:10.0f} frames/s")
+    # incremental == full forward over the generated sequence (same inputs and controls)
+    g = Generator(model, norm, batch=1)
+    g.keep_outputs = True
+    gen = g.run(x, skel, types, 600, seed_traj=traj)
+    inc, pred = step_outputs(g.raw_outputs, model.cfg)
+    s = x.shape[1]
+    used = np.concatenate([norm.norm_traj(traj[:, 1:]), pred[:, s - 2:-1]], 1)  # c^d fed at each step
+    full = full_recompute_outputs(model, norm, gen, skel, types, used)
+    max_diff = float(np.abs(inc - full).max())
+    print(f"max |incremental - full forward| over {inc.shape[1]} frames: {max_diff:.2e}")
+    # freezing: ten clips of freeze_seconds, free-running (the network's own c^d), mean pose
+    frames = int(a.freeze_seconds * 60)
+    rows = seeds(ds, 10)
+    x10, traj10, skel10, types10 = gen_inputs(ds, rows, 60, model.cfg.n_types)
+    g10 = Generator(model, norm, batch=10)
+    t = time.perf_counter()
+    gen10 = g10.run(x10, skel10, types10, frames, seed_traj=traj10)
+    share = freezing_share(gen10.x[:, 60:], ds.layout, meta["dataset"]["train_mean_joint_speed"])
+    per_clip = [freezing_share(gen10.x[i, 60:], ds.layout, meta["dataset"]["train_mean_joint_speed"])
+                for i in range(10)]
+    print(f"freezing share over 10 x {a.freeze_seconds:g} s ({time.perf_counter() - t:.1f} s): {share:.3f}; "
+          "per clip " + ", ".join(f"{ds.clips.iloc[i]['clip']}={s:.2f}" for i, s in zip(rows, per_clip)))
+    res = dict(fps_single=round(fps1, 1), fps_batch64=round(fps64, 1), speedup_vs_naive=round(fps1 / naive1, 2),
+               fps_naive_single=round(naive1, 1), fps_naive_batch64=round(naive64, 1),
+               max_abs_diff=max_diff, freezing_share=round(share, 4), threads=a.threads, model=a.model)
+    print(json.dumps(res))
+    return res
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,112 @@
+"""CCNet generation with the committed checkpoint: incremental = full recompute, IK, zoo."""
+
+import numpy as np
+import pytest
+import torch
+
+from mocapviz import zoo
+from mocapviz.ik import foot_slide, remove_foot_sliding
+from mocapviz.models.ccnet import CCNetStepper, NumpyStepper
+from mocapviz.tasks.generate import (Generator, circle_path, clip_types, freezing_share, full_recompute_outputs,
+                                     step_outputs)
+
+
+@pytest.fixture(scope="module")
+def ds(data_dir):
+    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+    return build_dataset(DatasetConfig(), data_dir, progress=False)
+
+
+@pytest.fixture(scope="module")
+def committed():
+    path = zoo.committed_path("ccnet_default")
+    if not path.is_file():
+        pytest.fail(f"the committed checkpoint {path} is missing")
+    return zoo.load("ccnet_default", retrain_if_missing=False)
+
+
+def test_committed_checkpoint_is_small_and_self_contained(committed):
+    model, norm, meta = committed
+    assert zoo.committed_path("ccnet_default").stat().st_size < 10 * 2 ** 20
+    assert model.cfg.receptive_field == 41 and not model.training
+    assert meta["dataset"]["joint_names"][0] == "Hips" and len(norm.x_mean) == model.cfg.n_cont
+    assert "optim_param_groups" not in meta  # model-only export
+
+
+def seed_inputs(ds, clip, n_seed=40):
+    row = ds.clip_row(clip)
+    a = ds.clip_arrays(row)
+    return row, a["x"][None, :n_seed], a["traj"][None, :n_seed], a["skel"][None], a["type_index"]
+
+
+@pytest.mark.parametrize("backend", ["numpy", "torch"])
+def test_incremental_generation_equals_full_recompute(ds, committed, backend):
+    model, norm, _ = committed
+    _, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120")
+    types = clip_types(ti, model.cfg.n_types)
+    g = Generator(model, norm, backend=backend)
+    g.keep_outputs = True
+    gen = g.run(x, skel, types, 200, seed_traj=traj)
+    inc, pred = step_outputs(g.raw_outputs, model.cfg)
+    s = x.shape[1]
+    used = np.concatenate([norm.norm_traj(traj[:, 1:]), pred[:, s - 2:-1]], 1)
+    with torch.inference_mode():
+        full = full_recompute_outputs(model, norm, gen, skel, types, used)
+    assert np.abs(inc - full).max() < 1e-5
+    # the generated frames are the fed-back means (not copies of the seed)
+    assert np.array_equal(gen.x_norm[0, s:, :model.cfg.n_cont], inc[0, s - 1:, :model.cfg.n_cont])
+
+
+def test_numpy_and_torch_steppers_agree(committed):
+    model, _, _ = committed
+    cfg = model.cfg
+    rng = np.random.default_rng(0)
+    a, b = NumpyStepper(model, 3), CCNetStepper(model, 3)
+    skel, types = rng.normal(size=(3, cfg.n_skel)).astype(np.float32), np.eye(cfg.n_types, dtype=np.float32)[:3]
+    a.set_static(skel, types)
+    b.set_static(torch.from_numpy(skel), torch.from_numpy(types))
+    with torch.inference_mode():
+        for _ in range(45):
+            x = rng.normal(size=(3, cfg.n_x)).astype(np.float32)
+            c = rng.normal(size=(3, cfg.n_traj)).astype(np.float32)
+            np.testing.assert_allclose(a.step(x, c), b.step(torch.from_numpy(x), torch.from_numpy(c)).numpy(),
+                                       atol=2e-5)
+
+
+def test_generated_motion_moves_and_follows_a_path(ds, committed):
+    model, norm, meta = committed
+    row, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120", 60)
+    r = ds.clips.iloc[row]
+    clip = ds.clip_motion(row)
+    speed = np.linalg.norm(np.diff(clip.root_positions[:, [0, 2]], axis=0), axis=1).mean() * 60
+    from mocapviz.features.ccnet import heading_angles
+    heading = heading_angles(clip.positions(), clip.skeleton)[59]
+    n = 600
+    circle = circle_path(n + 60, speed, 2.0, clip.root_positions[59, [0, 2]], heading)
+    path = np.concatenate([np.repeat(circle[:1], 60, 0), circle])[None]
+    gen = Generator(model, norm).run(x, skel, clip_types(ti, model.cfg.n_types), n, path=path, seed_traj=traj,
+                                     start_root=np.array([[r.root_x, r.root_y, r.root_z]]),
+                                     start_heading=np.array([r.heading]))
+    assert freezing_share(gen.x[:, 60:], ds.layout, meta["dataset"]["train_mean_joint_speed"]) < 0.05
+    m = gen.motion(0, ds.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False)
+    travelled = np.linalg.norm(np.diff(m.root_positions[60:, [0, 2]], axis=0), axis=1).sum()
+    assert travelled > 0.5 * speed * n / 60  # it keeps moving along the 10 s path
+    dist = np.linalg.norm(m.root_positions[60:, None, [0, 2]] - path[0, None, 60:60 + n], axis=-1).min(1)
+    assert dist.mean() < 1.0
+
+
+def test_foot_ik_removes_sliding_and_keeps_bones(ds):
+    row = ds.clip_row("35_01")
+    m = ds.clip_motion(row)
+    contacts = m.meta["contacts"]
+    before = foot_slide(m, contacts)
+    out = remove_foot_sliding(m, contacts)
+    after = foot_slide(out, contacts)
+    assert before > 0.05 and after < 0.25 * before
+    bones = lambda mo: np.linalg.norm(mo.positions()[:, 1:] - mo.positions()[:, mo.skeleton.parents[1:]], axis=-1)  # noqa: E731
+    np.testing.assert_allclose(bones(out), bones(m), atol=1e-9)
+    # the root and every joint outside the legs stay where they were
+    legs = [m.skeleton.index(n) for n in ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase",
+                                          "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")]
+    others = [j for j in range(m.skeleton.n_joints) if j not in legs]
+    np.testing.assert_allclose(out.positions()[:, others], m.positions()[:, others], atol=1e-9)
