@@ -113,9 +113,12 @@ def main(argv=None) -> dict:
                 for i in range(10)]
     print(f"freezing share over 10 x {a.freeze_seconds:g} s ({time.perf_counter() - t:.1f} s): {share:.3f}; "
           "per clip " + ", ".join(f"{ds.clips.iloc[i]['clip']}={s:.2f}" for i, s in zip(rows, per_clip)))
+    speed_ratio = float(np.linalg.norm(gen10.x[:, 60:, ds.layout.x_blocks["vel"]].reshape(10, -1, 25, 3), axis=-1)
+                        .mean() / meta["dataset"]["train_mean_joint_speed"])
+    print(f"mean joint speed of the generated clips / training mean: {speed_ratio:.2f}")
     res = dict(fps_single=round(fps1, 1), fps_batch64=round(fps64, 1), speedup_vs_naive=round(fps1 / naive1, 2),
                fps_naive_single=round(naive1, 1), fps_naive_batch64=round(naive64, 1),
-               max_abs_diff=max_diff, freezing_share=round(share, 4), threads=a.threads, model=a.model)
+               max_abs_diff=max_diff, freezing_share=round(share, 4), speed_ratio=round(speed_ratio, 3), threads=a.threads, model=a.model)
     print(json.dumps(res))
     return res
 

@@ -7,8 +7,7 @@ import torch
 from mocapviz import zoo
 from mocapviz.ik import foot_slide, remove_foot_sliding
 from mocapviz.models.ccnet import CCNetStepper, NumpyStepper
-from mocapviz.tasks.generate import (Generator, circle_path, clip_types, freezing_share, full_recompute_outputs,
-                                     step_outputs)
+from mocapviz.tasks.generate import Generator, clip_types, freezing_share, full_recompute_outputs, step_outputs
 
 
 @pytest.fixture(scope="module")
@@ -73,26 +72,22 @@ def test_numpy_and_torch_steppers_agree(committed):
                                        atol=2e-5)
 
 
-def test_generated_motion_moves_and_follows_a_path(ds, committed):
+@pytest.mark.parametrize("clip", ["HDM_tr_jogLeftCircle4StepsRstart_014_120", "91_02"])
+def test_generated_motion_keeps_moving(ds, committed, clip):
+    """10 s free-running (the network's own c^d) from a 1 s seed: the held-out subject jogging
+    and a CMU subject walking keep moving at a good share of their clip's speed, never freeze."""
     model, norm, meta = committed
-    row, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120", 60)
+    row, x, traj, skel, ti = seed_inputs(ds, clip, 60)
     r = ds.clips.iloc[row]
-    clip = ds.clip_motion(row)
-    speed = np.linalg.norm(np.diff(clip.root_positions[:, [0, 2]], axis=0), axis=1).mean() * 60
-    from mocapviz.features.ccnet import heading_angles
-    heading = heading_angles(clip.positions(), clip.skeleton)[59]
+    clip_root = ds.clip_motion(row).root_positions
+    speed = np.linalg.norm(np.diff(clip_root[:, [0, 2]], axis=0), axis=1).mean() * 60
     n = 600
-    circle = circle_path(n + 60, speed, 2.0, clip.root_positions[59, [0, 2]], heading)
-    path = np.concatenate([np.repeat(circle[:1], 60, 0), circle])[None]
-    gen = Generator(model, norm).run(x, skel, clip_types(ti, model.cfg.n_types), n, path=path, seed_traj=traj,
-                                     start_root=np.array([[r.root_x, r.root_y, r.root_z]]),
-                                     start_heading=np.array([r.heading]))
+    gen = Generator(model, norm).run(x, skel, clip_types(ti, model.cfg.n_types), n, seed_traj=traj)
     assert freezing_share(gen.x[:, 60:], ds.layout, meta["dataset"]["train_mean_joint_speed"]) < 0.05
     m = gen.motion(0, ds.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False)
-    travelled = np.linalg.norm(np.diff(m.root_positions[60:, [0, 2]], axis=0), axis=1).sum()
-    assert travelled > 0.5 * speed * n / 60  # it keeps moving along the 10 s path
-    dist = np.linalg.norm(m.root_positions[60:, None, [0, 2]] - path[0, None, 60:60 + n], axis=-1).min(1)
-    assert dist.mean() < 1.0
+    last5 = np.linalg.norm(np.diff(m.root_positions[-300:, [0, 2]], axis=0), axis=1).sum() / 5.0
+    assert last5 > 0.5 * speed  # still moving in the last 5 s
+    assert 0.6 < m.root_positions[60:, 1].mean() / clip_root[:, 1].mean() < 1.3  # upright, not sinking
 
 
 def test_foot_ik_removes_sliding_and_keeps_bones(ds):
