@@ -74,7 +74,7 @@ class Motion:
         if isinstance(frames, int):
             frames = slice(frames, frames + 1)
         return replace(self, rotations=self.rotations[frames], root_positions=self.root_positions[frames],
-                       meta=dict(self.meta))
+                       meta=self._derived_meta(frames))
 
     def positions(self) -> np.ndarray:
         """Global joint positions (F, J, 3) by forward kinematics."""
@@ -90,7 +90,7 @@ class Motion:
         alpha = t - i0
         rot = slerp_matrices(self.rotations[i0], self.rotations[i1], alpha[:, None])
         root = self.root_positions[i0] * (1 - alpha[:, None]) + self.root_positions[i1] * alpha[:, None]
-        return replace(self, rotations=rot, root_positions=root, fps=float(fps), meta=dict(self.meta))
+        return replace(self, rotations=rot, root_positions=root, fps=float(fps), meta=self._derived_meta())
 
     def mirrored(self) -> "Motion":
         """Left/right mirror image across the world's X = 0 plane (Y up).
@@ -106,9 +106,28 @@ class Motion:
         rot = _MIRROR_X @ self.rotations[:, partner] @ _MIRROR_X
         root = self.root_positions @ _MIRROR_X
         return replace(self, skeleton=mirrored_sk, rotations=rot, root_positions=root,
-                       name=self.name + "_mirror", meta=dict(self.meta))
+                       name=self.name + "_mirror", meta=self._derived_meta())
 
     def keep_joints(self, names) -> "Motion":
         """Drop whole subtrees (e.g. hands); kept joints move exactly as before."""
         sub, idx = self.skeleton.keep_joints(names)
-        return replace(self, skeleton=sub, rotations=self.rotations[:, idx], meta=dict(self.meta))
+        meta = self._derived_meta()
+        meta.pop("channels", None)  # the file's per-joint channel layout no longer applies
+        return replace(self, skeleton=sub, rotations=self.rotations[:, idx], meta=meta)
+
+    def _derived_meta(self, frames: slice | None = None) -> dict:
+        """``meta`` for a motion made from this one. Per-frame arrays a reader kept (raw
+        channel values, exp-maps) are sliced along with the frames, or dropped when the
+        frames themselves change (resampling, mirroring, dropping joints)."""
+        def derive(meta: dict) -> dict:
+            out = {}
+            for key, value in meta.items():
+                if isinstance(value, dict):
+                    value = derive(value)
+                elif isinstance(value, np.ndarray) and value.ndim and len(value) == self.n_frames:
+                    if frames is None:
+                        continue
+                    value = value[frames]
+                out[key] = value
+            return out
+        return derive(self.meta)

@@ -175,3 +175,19 @@ def test_lazy_rotations_equal_eager_and_survive_pickle(data_dir):
     bad = Motion(lazy.skeleton, lambda: np.zeros((3, 31, 3, 3)), lazy.root_positions, lazy.fps)
     with pytest.raises(ValueError, match="rotations must be"):
         bad.rotations
+
+
+def test_derived_motions_keep_per_frame_meta_consistent(data_dir):
+    from mocapviz.io.bvh import write_bvh
+
+    motion = read_bvh(data_dir / "cmu" / "35" / "35_01.bvh")
+    part = motion[10:20]
+    np.testing.assert_array_equal(part.meta["channel_values"], motion.meta["channel_values"][10:20])
+    assert "channel_values" not in motion.resample(60).meta
+    assert "channel_values" not in motion.mirrored().meta
+    small = motion.keep_joints(CCNET_25_JOINTS)
+    assert "channels" not in small.meta and "channel_values" not in small.meta
+    again = read_bvh("part.bvh", text=write_bvh(part), length_unit=motion.meta["length_unit"])
+    np.testing.assert_allclose(again.positions(), part.positions(), atol=1e-6)
+    again = read_bvh("small.bvh", text=write_bvh(small), length_unit=motion.meta["length_unit"])
+    np.testing.assert_allclose(again.positions(), small.positions(), atol=1e-6)
