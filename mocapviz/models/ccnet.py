@@ -219,6 +219,9 @@ class CCNetStepper:
         self._past_index = [torch.tensor([(p - d) % r for d in self.cfg.dilations]) for p in range(r)]
         self._blocks = torch.arange(nb)
         self._past_w = torch.stack(self.w.past_w)
+        self._gates = torch.zeros(nb, self.batch, self.cfg.channels, dtype=self.dtype)
+        self._skip_w = self.w.skip_w.view(nb, self.cfg.channels, -1)
+        self._skip_b = (self.w.skip_b / nb).expand(nb, 1, -1)
         self.t = 0
 
     def set_static(self, skel: torch.Tensor, types: torch.Tensor):
@@ -234,21 +237,20 @@ class CCNetStepper:
         c = self.cfg.channels
         nb = len(self.rings_shape)
         r = self.hist.shape[0]
-        h = torch.relu(torch.addmm(w.enc_b, x, w.enc_w))
+        past = self.hist[self._past_index[self.t % r], self._blocks]          # (nb, B, C), a copy
+        cur = self.hist[self.t % r]                # block inputs of this frame are written here
+        torch.addmm(w.enc_b, x, w.enc_w, out=cur[0]).relu_()
         cz = torch.addmm(self._static, traj, w.ctrl_traj_w)
-        past = self.hist[self._past_index[self.t % r], self._blocks]          # (nb, B, C)
         pre = torch.baddbmm(cz.view(self.batch, nb, 2 * c).transpose(0, 1), past, self._past_w)
-        gs, hs = [], []
+        gates = self._gates
         for i in range(nb):
-            hs.append(h)
-            z = torch.addmm(pre[i], h, w.cur_w[i]).tanh_()
-            a = z[:, :c]
-            g = torch.addcmul(a, a, z[:, c:])      # 2 tanh(a) sigmoid(b); the 1/2 is in res/skip
-            gs.append(g)
-            h = torch.addmm(h, g, w.res_w[i])
-        torch.stack(hs, out=self.hist[self.t % r])
+            z = pre[i].addmm_(cur[i], w.cur_w[i]).tanh_()
+            a, b = z.chunk(2, dim=1)
+            torch.addcmul(a, a, b, out=gates[i])   # 2 tanh(a) sigmoid(b); the 1/2 is in res/skip
+            if i + 1 < nb:                          # the last block's residual feeds nothing
+                torch.addmm(cur[i], gates[i], w.res_w[i], out=cur[i + 1])
         self.t += 1
-        skip = torch.addmm(w.skip_b, torch.cat(gs, 1), w.skip_w).relu_()
+        skip = torch.baddbmm(self._skip_b, gates, self._skip_w).sum(0).relu_()
         return torch.addmm(w.dec_b, skip, w.dec_w)
 
     @property
