@@ -166,4 +166,40 @@ display(Image(filename=str(fig_dir / f"dataset_clip_{CLIP}.png")))
 # %% [markdown]
 # ## Representation (CCNet §3.1)
 #
-# The frame vector $x_n$, the control $c_n$ and their normalisation follow in the CCNet issue.
+# CCNet models the next frame vector $\mathbf x_n$ given the past frames and a control
+# $\mathbf c_n$. The dataset build (`python -m data_prep build ccnet`, cached in `cache/ccnet/`)
+# keeps the 25 modelled joints, resamples every clip to CCNet's 60 fps and computes, per frame and
+# in the previous frame's heading frame (Y up, on the ground under the previous root, facing where
+# the body faced):
+#
+# * $\mathbf x^e$ exponential-map local rotations, $\mathbf x^\omega$ their angular velocities,
+#   $\mathbf x^p$ joint positions relative to the previous root frame, $\mathbf x^v$ joint linear
+#   velocities, $\mathbf x^f$ two foot-contact labels, and a 4-value root block (planar velocity,
+#   heading rate, root height) that generation integrates into the path;
+# * the control: $\mathbf c^s$ (root height + root-relative rest joints, the skeleton
+#   configuration), $\mathbf c^d$ (the root 10, 20, ..., 60 frames ahead in the current heading
+#   frame, 12 values) and a one-hot motion type over the merged types of HDM05 and CMU.
+#
+# The layout of $\mathbf x_n$ (one row per block, with its columns and unit):
+
+# %%
+from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+from mocapviz.viz.ccnet import plot_controls
+
+ds = build_dataset(DatasetConfig(), progress=False)
+display(pd.DataFrame(ds.layout.table(), columns=["block", "start", "stop", "unit"]))
+print(f"{ds.layout.n_x} values a frame; "
+      f"{len(ds.clips)} clips, {len(ds.x)} frames at {ds.config.fps:g} fps; "
+      f"held-out subject {ds.meta['test_subject']!r}")
+
+# %% [markdown]
+# The controls drawn over a real clip, HDM05 actor *bd* jogging in a left circle. Left: the root
+# path from above and, every 20 frames, the six points of $\mathbf c^d$ (where the root will be
+# over the next second). Right: the foot-contact labels and the root block over time.
+
+# %%
+row = ds.clip_row("HDM_bd_jogLeftCircle4StepsRstart_001_120")
+r, arrays = ds.clips.iloc[row], ds.clip_arrays(row)
+fig = plot_controls(arrays["x"], arrays["traj"], (r.root_x, r.root_y, r.root_z), r.heading,
+                    title=f"{r['clip']} (type {r['type']})", path=fig_dir / "ccnet_representation_controls.png")
+plots.show(fig)
