@@ -34,6 +34,8 @@ test-unit: setup
 
 bench: setup
 	$(PY) benchmarks/bench_io.py
+	$(PY) benchmarks/bench_generation.py
+	$(PY) benchmarks/bench_body.py
 
 clean:
 	rm -rf $(VENV) cache figures/*.png
