@@ -20,8 +20,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import os
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +29,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
+from mocapviz.atomic import atomic_path
 from data_prep.sources import find_data_dir
 
 DATASET_VERSION = 1
@@ -233,17 +232,10 @@ def _frame_bytes(df: pd.DataFrame) -> np.ndarray:
 
 
 def save_dataset(ds: Body4DDataset, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
     arrays = dict(chi=ds.chi, beta=ds.beta, cycles=_frame_bytes(ds.cycles), subjects=_frame_bytes(ds.subjects),
                   clips=_frame_bytes(ds.clips), meta=np.frombuffer(json.dumps(ds.meta).encode(), dtype=np.uint8))
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp.npz", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path, suffix=".tmp.npz") as tmp:
         np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def load_dataset(path: str | Path) -> Body4DDataset:

@@ -24,9 +24,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import os
 import re
-import tempfile
 import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -34,6 +32,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from data_prep.sources import REPO_ROOT, SOURCES, find_data_dir
+from mocapviz.atomic import atomic_path
 
 if TYPE_CHECKING:
     from mocapviz.motion import Motion
@@ -156,16 +155,8 @@ def _scan(root: Path) -> pd.DataFrame:
 
 
 def _write_atomic_pickle(df: pd.DataFrame, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         df.to_pickle(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _prune(cache_dir: Path, keep: Path, n_keep: int = 8) -> None:

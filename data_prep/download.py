@@ -46,7 +46,6 @@ import io
 import json
 import os
 import sys
-import tempfile
 import urllib.error
 import urllib.request
 from dataclasses import dataclass
@@ -55,6 +54,7 @@ from pathlib import Path
 from tqdm.auto import tqdm
 
 from data_prep.sources import REPO_ROOT, SOURCES
+from mocapviz.atomic import atomic_path
 
 MANIFEST_PATH = Path(__file__).with_name("manifest.json")
 DEFAULT_DEST = REPO_ROOT / "data" / "raw"
@@ -100,16 +100,8 @@ def sha256_file(path: str | Path) -> str:
 
 
 def _atomic_write_bytes(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def download_file(url: str, dest: str | Path, sha256: str | None = None, *, progress: bool = True,

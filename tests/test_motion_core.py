@@ -163,8 +163,6 @@ def test_configuration_hand_computed():
 def test_lazy_rotations_equal_eager_and_survive_pickle(data_dir):
     import pickle
 
-    from mocapviz.io.bvh import read_bvh
-    from mocapviz.motion import Motion
 
     lazy = read_bvh(data_dir / "cmu" / "35" / "35_01.bvh")
     assert "rotations" not in lazy.__dict__  # not computed yet

@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from data_prep.sources import DataNotFoundError, find_data_dir
-from mocapviz.skeleton import Skeleton
 from mocapviz.viz import geometry as geo
 from mocapviz.viz.colors import subject_colors
 from mocapviz.viz.plots import VICON_BONE_NAMES, bone_length_table, plot_bone_lengths
