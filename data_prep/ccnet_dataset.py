@@ -9,8 +9,13 @@ written atomically.
 Split (the analog of the paper's §4.1.1): one whole subject is held out (chosen at random with
 the config's seed among the HDM05 actors, or named by ``test_subject``), plus one random clip
 of every other subject that has at least two clips long enough for a window (the CMU subjects
-here have one usable clip each, so holding one out would hold out the subject). Normalisation
-statistics come from the training clips only. Windows never cross clip boundaries.
+here have one usable clip each, so holding one out would hold out the subject). Validation
+(for model selection, so the test split never picks a checkpoint): one random clip of every
+training subject that still has at least three usable clips after the test selection (in
+practice one clip of each of the four remaining HDM05 actors; single-clip CMU subjects stay in
+training). Both draws come from the config's seed, test first, so adding validation left the test
+split unchanged. ``meta`` lists ``test_clips`` and ``val_clips``. Normalisation statistics come
+from the training clips only. Windows never cross clip boundaries.
 
 Window length (the paper's NCF, 240 there): our clips are short (HDM05 median ~1.8 s), so NCF
 defaults to 60 frames (1 s, the shortest NCF of the paper's §4.8.1): with 60, 244 of 302
@@ -37,7 +42,7 @@ from data_prep.sources import find_data_dir
 from mocapviz.features import ccnet as feat
 from mocapviz.skeleton import CCNET_25_JOINTS
 
-DATASET_VERSION = 1
+DATASET_VERSION = 2  # 2: validation split
 
 
 @dataclass(frozen=True)
@@ -60,7 +65,8 @@ class CCNetDataset:
     x: np.ndarray             # (N, n_x) raw (unnormalised) frame vectors
     traj: np.ndarray          # (N, 12) raw c^d
     skel: np.ndarray          # (n_clips, 3J-2) raw c^s per clip
-    clips: pd.DataFrame       # clip, subject, source, motion_type, type, type_index, split, start, stop, ...
+    clips: pd.DataFrame       # clip, subject, source, motion_type, type, type_index, split
+                              # (train / val / test), start, stop, ...
     normaliser: feat.Normaliser
     config: DatasetConfig
     joint_names: tuple[str, ...]
@@ -125,6 +131,12 @@ def _choose_split(clips: pd.DataFrame, config: DatasetConfig, long_enough: np.nd
         cand = np.flatnonzero((clips.subject.values == subject) & long_enough)
         if len(cand) >= 2:
             split[rng.choice(cand)] = "test"
+    # validation: drawn after (and independently of) the test clips, so the test split is the
+    # one of dataset version 1; a subject needs >= 3 usable clips left so that training keeps >= 2
+    for subject in sorted(set(clips.subject) - {test_subject}):
+        cand = np.flatnonzero((clips.subject.values == subject) & long_enough & (split == "train"))
+        if len(cand) >= 3:
+            split[rng.choice(cand)] = "val"
     return split
 
 
@@ -191,6 +203,7 @@ def build_dataset(config: DatasetConfig = DatasetConfig(), data_dir=None, cache:
                 hash=path.stem, build_seconds=round(time.perf_counter() - t0, 2),
                 test_subject=str(clips[clips.split == "test"].subject.value_counts().index[0]),
                 test_clips=clips[clips.split == "test"]["clip"].tolist(),
+                val_clips=clips[clips.split == "val"]["clip"].tolist(),
                 n_train_clips=int(train_clips.sum()), n_frames=int(len(x)),
                 n_train_frames=int(len(train_rows)), train_mean_joint_speed=float(train_speed.mean()),
                 motion_types=list(feat.MOTION_TYPES), joint_names=list(names))
@@ -252,7 +265,7 @@ def main(argv=None) -> int:
     m = ds.meta
     print(f"{len(ds.clips)} clips, {m['n_frames']} frames ({m['n_train_frames']} train) at "
           f"{ds.config.fps:g} fps; test subject {m['test_subject']} + {len(m['test_clips'])} test clips "
-          f"in all; {time.perf_counter() - t:.1f} s ({m['hash']})")
+          f"in all; {len(m['val_clips'])} validation clips; {time.perf_counter() - t:.1f} s ({m['hash']})")
     return 0
 
 

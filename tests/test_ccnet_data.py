@@ -45,23 +45,39 @@ def test_trajectory_control_hand_case():
 def test_split_holds_out_a_subject_and_one_clip_per_other_subject(ds):
     clips = ds.clips
     test_subject = ds.meta["test_subject"]
+    assert set(clips.split) == {"train", "val", "test"}
     assert (clips[clips.subject == test_subject].split == "test").all()
+    n_val = 0
     for subject, g in clips[clips.subject != test_subject].groupby("subject"):
         usable = g[(g.stop - g.start >= ds.config.window + 2) & g.trainable]
-        assert (g.split == "test").sum() == (1 if len(usable) >= 2 else 0), subject
+        n_test = (g.split == "test").sum()
+        assert n_test == (1 if len(usable) >= 2 else 0), subject
+        # validation: one usable clip of each subject with >= 3 usable clips left after the test one
+        val = g[g.split == "val"]
+        assert len(val) == (1 if len(usable) - n_test >= 3 else 0), subject
+        assert val.index.isin(usable.index).all()
+        assert (usable.split == "train").sum() >= (2 if len(val) else min(1, len(usable))), subject
+        n_val += len(val)
+    assert n_val == 4  # the four HDM05 actors other than the test one; CMU subjects stay in training
     assert set(ds.meta["test_clips"]) == set(clips[clips.split == "test"]["clip"])
+    assert set(ds.meta["val_clips"]) == set(clips[clips.split == "val"]["clip"])
+    assert ds.meta["n_train_clips"] == (clips.split == "train").sum()
+    # the test split is the one chosen before validation existed (dataset version 1, seed 7)
+    assert len(ds.meta["test_clips"]) == 59
 
 
 def test_normaliser_uses_training_clips_only(ds):
     train = np.concatenate([np.arange(r.start, r.stop) for r in ds.clips.itertuples() if r.split == "train"])
+    with_val = np.concatenate([np.arange(r.start, r.stop) for r in ds.clips.itertuples() if r.split != "test"])
     n = ds.layout.n_cont
     np.testing.assert_allclose(ds.normaliser.x_mean, ds.x[train, :n].mean(0), rtol=1e-4, atol=1e-5)
     assert not np.allclose(ds.normaliser.x_mean, ds.x[:, :n].mean(0), rtol=1e-4, atol=1e-5)
+    assert not np.allclose(ds.normaliser.x_mean, ds.x[with_val, :n].mean(0), rtol=1e-5, atol=1e-6)
 
 
 def test_windows_stay_inside_clips(ds):
     w = ds.config.window
-    for split in ("train", "test"):
+    for split in ("train", "val", "test"):
         pairs = ds.window_starts(split)
         assert len(pairs)
         clips = ds.clips.iloc[pairs[:, 0]]
