@@ -4,7 +4,7 @@
 ``models/zoo/<name>.safetensors`` (committed, so notebooks and CI never retrain), then for a
 cached run under ``cache/zoo/<name>-<hash>/`` (hash of the training config and the dataset),
 and otherwise trains that run (resuming if interrupted) with
-:func:`mocapviz.training.trainer.train` and caches it.
+:func:`mocapviz.training.trainer.train` and caches its best-by-validation model.
 """
 
 from __future__ import annotations
@@ -42,5 +42,6 @@ def load(name: str = "ccnet_default", retrain_if_missing: bool = True, prefer_co
     if not model_file.is_file():
         if not retrain_if_missing:
             raise FileNotFoundError(f"{name}: no committed checkpoint at {path} and no cached run {run}")
-        export_model(train(ds, cfg, run, resume=True, progress=progress), model_file)
+        train(ds, cfg, run, resume=True, progress=progress)
+        export_model(run, model_file)  # the best-by-validation model of the run
     return load_checkpoint(model_file)

@@ -1,4 +1,4 @@
-"""CCNet training: exact resume, checkpoint contents, DDP under torchrun (slow)."""
+"""CCNet training: exact resume, best-by-validation selection and export, checkpoint contents, DDP (slow)."""
 
 import csv
 import os
@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from mocapviz.training.checkpoint import load_checkpoint
-from mocapviz.training.trainer import TRAIN_CONFIGS, train
+from mocapviz.training.trainer import TRAIN_CONFIGS, best_row, export_model, train
 
 TINY = replace(TRAIN_CONFIGS["quick"], steps=8, batch_size=4, window=30, eval_every=4, checkpoint_every=4,
                dilations=(1, 2, 4))
@@ -42,6 +42,34 @@ def test_resume_continues_the_same_loss_curve(ds, tmp_path):
         assert torch.equal(v1, v2), k
     # losses change from step to step (the run is not a no-op)
     assert len({r["loss"] for r in a}) > 4
+    # validation and test NLL are logged at the eval steps only
+    assert [r["step"] for r in a if r["val_nll"]] == [r["step"] for r in a if r["test_nll"]] == ["4", "8"]
+    # the best-by-validation model is the same whether or not the run was interrupted
+    best = best_row(a)
+    assert float(best["val_nll"]) == min(float(r["val_nll"]) for r in a if r["val_nll"])
+    b1, _, meta1 = load_checkpoint(tmp_path / "full" / "best.safetensors")
+    b2, _, meta2 = load_checkpoint(tmp_path / "part" / "best.safetensors")
+    assert meta1["step"] == meta2["step"] == int(best["step"]) and "optim_param_groups" not in meta1
+    for (k, v1), v2 in zip(b1.state_dict().items(), b2.state_dict().values()):
+        assert torch.equal(v1, v2), k
+    # export takes the best model, records where it came from, and drops nothing else
+    _, _, em = load_checkpoint(export_model(tmp_path / "full", tmp_path / "export.safetensors"))
+    assert em["step"] == int(best["step"]) and em["final_step"] == 8 and em["selected_by"] == "val_nll"
+    assert em["val_nll"] == float(best["val_nll"]) and em["test_nll"] == float(best["test_nll"])
+
+
+def test_resume_restores_the_best_so_far_from_the_log(ds, tmp_path):
+    # stop at 6 (not an eval step): nothing extra is evaluated or selected at the interruption
+    cfg = replace(TINY, steps=12)
+    train(ds, cfg, tmp_path / "full", progress=False)
+    train(ds, cfg, tmp_path / "part", progress=False, stop_after=6)
+    assert [r["step"] for r in rows(tmp_path / "part") if r["val_nll"]] == ["4"]
+    train(ds, cfg, tmp_path / "part", progress=False)
+    assert rows(tmp_path / "full") == rows(tmp_path / "part")
+    a = load_checkpoint(tmp_path / "full" / "best.safetensors")
+    b = load_checkpoint(tmp_path / "part" / "best.safetensors")
+    assert a[2]["step"] == b[2]["step"] == int(best_row(rows(tmp_path / "full"))["step"])
+    assert all(torch.equal(v, b[0].state_dict()[k]) for k, v in a[0].state_dict().items())
 
 
 def test_resume_refuses_another_config(ds, tmp_path):

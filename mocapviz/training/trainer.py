@@ -8,7 +8,12 @@ exponentially from ``lr`` to ``lr_final`` over ``steps``.
 Reproducible and resumable: the random draws of step k (windows, noise, dropout) come from
 generators seeded with (seed, rank, k), so a run resumed from a checkpoint continues exactly the
 loss curve of an uninterrupted run. Checkpoints (safetensors, written atomically) hold model,
-optimizer, normaliser and configs; a CSV logs the losses. Under ``torchrun`` (WORLD_SIZE > 1)
+optimizer, normaliser and configs; a CSV logs the losses.
+
+Model selection uses the validation split only: every ``eval_every`` steps the validation and
+test losses are computed (the test columns are for reporting), and the model with the lowest
+validation NLL so far is kept as ``best.safetensors`` (model only; its metadata records the step
+and its validation and test NLL). On resume the best-so-far value comes back from the CSV. Under ``torchrun`` (WORLD_SIZE > 1)
 the model is wrapped in DistributedDataParallel (gloo), each rank draws its own windows, and only
 rank 0 writes files.
 """
@@ -33,8 +38,8 @@ from mocapviz.models.ccnet import CCNet, CCNetConfig, make_config
 from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint
 from mocapviz.training.losses import LAMBDAS, ccnet_loss
 
-CSV_FIELDS = ["step", "epoch", "lr", "loss", "nll", "smooth", "contact", "direction", "test_nll",
-              "test_loss", "seconds"]
+CSV_FIELDS = ["step", "epoch", "lr", "loss", "nll", "smooth", "contact", "direction", "val_nll", "val_loss",
+              "test_nll", "test_loss", "seconds"]
 
 
 @dataclass(frozen=True)
@@ -101,6 +106,9 @@ class WindowData:
         self.clip_start = ds.clips.start.values
         self.train = ds.window_starts("train", window)
         self.test = ds.window_starts("test", window, stride=window)
+        # validation has few clips (4 by default): every window (stride 1), so every frame of
+        # them counts, at every context length; ~130 windows, a fraction of a second to evaluate
+        self.val = ds.window_starts("val", window, stride=1)
         self.n_train_frames = int(sum(r.stop - r.start for r in ds.clips.itertuples() if r.split == "train"))
 
     def batch(self, pairs: np.ndarray) -> dict[str, torch.Tensor]:
@@ -124,7 +132,7 @@ def lr_at(cfg: TrainConfig, step: int) -> float:
 
 
 @torch.no_grad()
-def evaluate(model: CCNet, data: WindowData, pairs: np.ndarray, lambdas=LAMBDAS, batch: int = 64) -> dict:
+def evaluate(model: CCNet, data: WindowData, pairs: np.ndarray, lambdas=LAMBDAS, batch: int = 128) -> dict:
     """Mean per-frame losses (no noise, dropout off) over the windows ``pairs``."""
     was = model.training
     model.eval()
@@ -157,9 +165,15 @@ def _read_csv(path: Path, upto: int) -> list[dict]:
         return [r for r in csv.DictReader(f) if int(r["step"]) <= upto]
 
 
+def best_row(rows: list[dict]) -> dict | None:
+    """The logged row with the lowest validation NLL (the first of ties), or None."""
+    ev = [r for r in rows if r.get("val_nll") not in ("", None)]
+    return min(ev, key=lambda r: float(r["val_nll"])) if ev else None
+
+
 def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = True,
           stop_after: int | None = None) -> Path:
-    """Train on ``ds`` into ``out_dir`` (``checkpoint.safetensors``, ``losses.csv``).
+    """Train on ``ds`` into ``out_dir`` (``checkpoint.safetensors``, ``best.safetensors``, ``losses.csv``).
 
     With ``resume`` an existing checkpoint in ``out_dir`` is continued exactly. ``stop_after``
     ends the run early at that step (a checkpoint is written), as if interrupted.
@@ -169,11 +183,14 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     torch.set_num_threads(max(1, cfg.threads // world))
     out_dir = Path(out_dir)
     ckpt, csv_path = out_dir / "checkpoint.safetensors", out_dir / "losses.csv"
+    best_path = out_dir / "best.safetensors"
     if cfg.window > ds.config.window:
         raise ValueError(f"window {cfg.window} exceeds the dataset's {ds.config.window}")
     data = WindowData(ds, cfg.window)
     if len(data.train) == 0:
         raise ValueError("the dataset has no training windows")
+    if len(data.val) == 0:
+        raise ValueError("the dataset has no validation windows (rebuild it: dataset version >= 2)")
     mcfg = cfg.model_config(data.layout)
     torch.manual_seed(cfg.seed)
     model = CCNet(mcfg)
@@ -186,6 +203,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
             raise ValueError(f"{ckpt} was trained with another config; use a new out_dir or resume=False")
         start = int(meta["step"])
         rows = _read_csv(csv_path, start)
+    best = best_row(rows)
+    best_val = float(best["val_nll"]) if best else math.inf
     model.train()
     # static_graph: the last block's residual 1x1 conv feeds nothing (only its skip is used)
     net = torch.nn.parallel.DistributedDataParallel(model, static_graph=True) if world > 1 else model
@@ -210,14 +229,27 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         opt.step()
         done = step + 1
         row = dict(step=done, epoch=round(done * cfg.batch_size * cfg.window / data.n_train_frames, 3),
-                   lr=lr, **{k: round(float(v.detach()), 5) for k, v in parts.items()}, test_nll="", test_loss="",
+                   lr=lr, **{k: round(float(v.detach()), 5) for k, v in parts.items()}, val_nll="", val_loss="",
+                   test_nll="", test_loss="",
                    seconds=round(time.perf_counter() - t0, 2))
-        if done % cfg.eval_every == 0 or done == end:
+        # evaluate on the schedule only (not at a stop_after step), so interrupted runs log and
+        # select exactly what an uninterrupted run does
+        if done % cfg.eval_every == 0 or done == cfg.steps:
+            va = evaluate(model, data, data.val, cfg.lambdas)
             ev = evaluate(model, data, data.test, cfg.lambdas)
-            row.update(test_nll=round(ev["nll"], 5), test_loss=round(ev["loss"], 5))
+            row.update(val_nll=round(va["nll"], 5), val_loss=round(va["loss"], 5),
+                       test_nll=round(ev["nll"], 5), test_loss=round(ev["loss"], 5))
+            # select on the logged (rounded) value, so that a resumed run restores the same best
+            if row["val_nll"] < best_val:
+                best_val = row["val_nll"]
+                if rank == 0:
+                    save_checkpoint(best_path, model, ds.normaliser,
+                                    dict(meta, step=str(done), val_nll=str(row["val_nll"]),
+                                         val_loss=str(row["val_loss"]), test_nll=str(row["test_nll"]),
+                                         test_loss=str(row["test_loss"]), selected_by="val_nll"))
         rows.append(row)
         if rank == 0:
-            bar.set_postfix(loss=f"{row['loss']:.1f}", test_nll=row["test_nll"])
+            bar.set_postfix(loss=f"{row['loss']:.1f}", val_nll=row["val_nll"], best=f"{best_val:.1f}")
             if done % cfg.checkpoint_every == 0 or done == end:
                 save_checkpoint(ckpt, model, ds.normaliser, dict(meta, step=str(done)), optimizer=opt)
                 _write_csv(csv_path, rows)
@@ -228,17 +260,31 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
 
 def _dataset_meta(ds) -> dict:
     m = ds.meta
-    return dict(hash=m.get("hash"), test_subject=m.get("test_subject"), joint_names=list(ds.joint_names),
+    return dict(hash=m.get("hash"), test_subject=m.get("test_subject"), val_clips=m.get("val_clips"),
+                joint_names=list(ds.joint_names),
                 parents=[int(p) for p in ds.parents], motion_types=m.get("motion_types"),
                 fps=ds.config.fps, window=ds.config.window,
                 train_mean_joint_speed=m.get("train_mean_joint_speed"))
 
 
 def export_model(ckpt, dest) -> Path:
-    """Model-only copy of a training checkpoint (no optimizer state), e.g. for the zoo."""
+    """Model-only copy of a checkpoint (no optimizer state), e.g. for the zoo.
+
+    ``ckpt`` is a checkpoint file or a run folder; for a folder the best-by-validation model
+    (``best.safetensors``) is exported, with its step and validation/test NLL in the metadata,
+    plus ``final_step`` (how far the run went).
+    """
+    ckpt = Path(ckpt)
+    extra = {}
+    if ckpt.is_dir():
+        _, _, last = load_checkpoint(ckpt / "checkpoint.safetensors")
+        extra["final_step"] = str(last["step"])
+        ckpt = ckpt / "best.safetensors"
+        if not ckpt.is_file():
+            raise FileNotFoundError(f"{ckpt} is missing: the run has not been evaluated yet")
     model, norm, meta = load_checkpoint(ckpt)
     keep = {k: v for k, v in meta.items() if k != "optim_param_groups"}
-    return save_checkpoint(dest, model, norm, keep)
+    return save_checkpoint(dest, model, norm, dict(keep, **extra))
 
 
 def main(argv=None) -> int:
@@ -252,7 +298,9 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=int)
     p.add_argument("--batch-size", type=int)
     p.add_argument("--eval-every", type=int)
-    p.add_argument("--export", help="also write a model-only checkpoint here")
+    p.add_argument("--export", help="also write a model-only checkpoint here: the best-by-validation model "
+                   "(lowest validation NLL over the evaluations, not the last step); its metadata records "
+                   "the step it came from and its validation and test NLL")
     p.add_argument("--no-resume", action="store_true")
     a = p.parse_args(argv)
     cfg = TRAIN_CONFIGS[a.config]
@@ -268,10 +316,13 @@ def main(argv=None) -> int:
         _, _, meta = load_checkpoint(ckpt)
         rows = _read_csv(Path(a.out) / "losses.csv", 10 ** 12)
         last = [r for r in rows if r["test_nll"] != ""][-1]
-        print(f"step {meta['step']}: test NLL {float(last['test_nll']):.2f} nats/frame "
-              f"(normalised units), test loss {float(last['test_loss']):.2f}")
+        best = best_row(rows)
+        print(f"step {meta['step']}: val NLL {float(last['val_nll']):.2f}, test NLL {float(last['test_nll']):.2f} "
+              f"nats/frame (normalised units), test loss {float(last['test_loss']):.2f}")
+        print(f"best by validation: step {best['step']}: val NLL {float(best['val_nll']):.2f}, "
+              f"test NLL {float(best['test_nll']):.2f}")
         if a.export:
-            print(f"exported {export_model(ckpt, a.export)}")
+            print(f"exported {export_model(Path(a.out), a.export)} (step {best['step']})")
     if dist.is_initialized():
         dist.destroy_process_group()
     return 0
