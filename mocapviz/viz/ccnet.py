@@ -53,16 +53,23 @@ def plot_controls(x: np.ndarray, traj: np.ndarray, start_root, start_heading: fl
 
 
 def plot_training_curves(runs: dict[str, str | Path], path: str | Path | None = None):
-    """Training loss (smoothed) and test NLL per step of each run's ``losses.csv``."""
+    """Training loss (smoothed); validation and test NLL per step of each run's ``losses.csv``.
+
+    A dotted vertical line marks each run's best-by-validation step (the exported model).
+    """
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4))
     for (name, csv), color in zip(runs.items(), plt.rcParams["axes.prop_cycle"].by_key()["color"]):
         df = pd.read_csv(csv)
         ax0.plot(df.step, df.loss.rolling(25, min_periods=1).mean(), color=color, label=f"{name} train L")
         ax0.plot(df.step, df.nll.rolling(25, min_periods=1).mean(), color=color, ls=":", label=f"{name} train L_G")
         ev = df.dropna(subset=["test_nll"])
-        ax1.plot(ev.step, ev.test_nll, "o-", color=color, label=f"{name} test L_G")
-        ax1.plot(ev.step, ev.test_loss, "s--", color=color, alpha=0.6, label=f"{name} test L")
-    for ax, title in ((ax0, "training (25-step mean)"), (ax1, "held-out test split")):
+        if "val_nll" in ev and ev.val_nll.notna().any():
+            ax1.plot(ev.step, ev.val_nll, "o-", color=color, label=f"{name} validation L_G")
+            best = ev.loc[ev.val_nll.idxmin()]
+            ax1.axvline(best.step, color=color, ls=":", lw=1,
+                        label=f"{name} best by validation (step {int(best.step)})")
+        ax1.plot(ev.step, ev.test_nll, "s--", color=color, alpha=0.6, label=f"{name} test L_G")
+    for ax, title in ((ax0, "training (25-step mean)"), (ax1, "validation (selects the model) and test")):
         ax.set_xlabel("step")
         ax.set_ylabel("nats per frame (normalised units)")
         ax.set_title(title)
