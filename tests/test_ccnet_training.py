@@ -70,6 +70,18 @@ def test_resume_restores_the_best_so_far_from_the_log(ds, tmp_path):
     b = load_checkpoint(tmp_path / "part" / "best.safetensors")
     assert a[2]["step"] == b[2]["step"] == int(best_row(rows(tmp_path / "full"))["step"])
     assert all(torch.equal(v, b[0].state_dict()[k]) for k, v in a[0].state_dict().items())
+    # the best-so-far value really comes from the log: make step 4 unbeatable there, and the
+    # resumed run keeps step 4's best.safetensors (the validation NLL here falls at every eval)
+    train(ds, cfg, tmp_path / "tampered", progress=False, stop_after=6)
+    log = (tmp_path / "tampered" / "losses.csv").read_text().splitlines()
+    head, i = log[0].split(","), next(k for k, line in enumerate(log) if line.startswith("4,"))
+    cells = log[i].split(",")
+    cells[head.index("val_nll")] = "-1e9"
+    log[i] = ",".join(cells)
+    (tmp_path / "tampered" / "losses.csv").write_text("\n".join(log) + "\n")
+    train(ds, cfg, tmp_path / "tampered", progress=False)
+    assert load_checkpoint(tmp_path / "tampered" / "best.safetensors")[2]["step"] == 4
+    assert a[2]["step"] != 4
 
 
 def test_resume_refuses_another_config(ds, tmp_path):
