@@ -75,7 +75,7 @@ class TrainConfig:
 
 # The named training configs. "paper": the paper's sizes and schedule (RMSprop, lr 1e-4 decaying
 # to 1e-6, batch 256). "quick" (a few minutes on 2 CPU cores) and "default" (the committed
-# checkpoint models/zoo/ccnet_default.safetensors, ~20 min on one shared core) keep the paper's
+# checkpoint models/zoo/ccnet_default.safetensors, ~12 min on one shared core) keep the paper's
 # 100x exponential decay but start at 1e-3: with 1e-4 the NLL falls ~10x slower per step, and a
 # CPU budget of a few thousand steps (vs. the paper's 2000 epochs on a GPU) does not get far.
 TRAIN_CONFIGS = {
