@@ -10,12 +10,16 @@ Split (the analog of the paper's §4.1.1): one whole subject is held out (chosen
 the config's seed among the HDM05 actors, or named by ``test_subject``), plus one random clip
 of every other subject that has at least two clips long enough for a window (the CMU subjects
 here have one usable clip each, so holding one out would hold out the subject). Validation
-(for model selection, so the test split never picks a checkpoint): one random clip of every
-training subject that still has at least three usable clips after the test selection (in
-practice one clip of each of the four remaining HDM05 actors; single-clip CMU subjects stay in
-training). Both draws come from the config's seed, test first, so adding validation left the test
-split unchanged. ``meta`` lists ``test_clips`` and ``val_clips``. Normalisation statistics come
-from the training clips only. Windows never cross clip boundaries.
+(for model selection, so the test split never picks a checkpoint) is one other whole HDM05
+actor, ``val_subject`` (``mm`` by default, the other test actor of the HDM05 source split), so
+that model selection measures generalisation to an unseen body and style as the test subject
+does: every clip of that actor is validation except the one the test draw took (the test draw
+is the same as in dataset versions 1 and 2, from the config's seed, so the test split is
+unchanged; with seed 7 it takes one clip of ``mm``, which stays in test). Version 2 used one
+clip of each training actor for validation instead; its validation NLL kept falling while the
+held-out subject's rose (overfitting to the training actors). ``meta`` lists ``test_clips``,
+``val_clips`` and ``val_subject``. Normalisation statistics come from the training clips only.
+Windows never cross clip boundaries.
 
 Window length (the paper's NCF, 240 there): our clips are short (HDM05 median ~1.8 s), so NCF
 defaults to 60 frames (1 s, the shortest NCF of the paper's §4.8.1): with 60, 244 of 302
@@ -42,7 +46,7 @@ from data_prep.sources import find_data_dir
 from mocapviz.features import ccnet as feat
 from mocapviz.skeleton import CCNET_25_JOINTS
 
-DATASET_VERSION = 2  # 2: validation split
+DATASET_VERSION = 3  # 2: validation split; 3: validation = one whole held-out actor
 
 
 @dataclass(frozen=True)
@@ -51,6 +55,7 @@ class DatasetConfig:
     window: int = 60                       # NCF: frames per training window
     sources: tuple[str, ...] = ("hdm05", "cmu")
     test_subject: str = ""                 # "" = random HDM05 actor (seeded)
+    val_subject: str = "mm"                # whole actor held out for validation (model selection)
     seed: int = 7
     joints: tuple[str, ...] = field(default=CCNET_25_JOINTS)
 
@@ -131,12 +136,16 @@ def _choose_split(clips: pd.DataFrame, config: DatasetConfig, long_enough: np.nd
         cand = np.flatnonzero((clips.subject.values == subject) & long_enough)
         if len(cand) >= 2:
             split[rng.choice(cand)] = "test"
-    # validation: drawn after (and independently of) the test clips, so the test split is the
-    # one of dataset version 1; a subject needs >= 3 usable clips left so that training keeps >= 2
-    for subject in sorted(set(clips.subject) - {test_subject}):
-        cand = np.flatnonzero((clips.subject.values == subject) & long_enough & (split == "train"))
-        if len(cand) >= 3:
-            split[rng.choice(cand)] = "val"
+    # validation: every remaining clip of one whole other actor (its test clip, if the draw above
+    # took one, stays in test so that the test split is the one of dataset versions 1 and 2)
+    val_subject = config.val_subject
+    if not val_subject:
+        raise ValueError("val_subject must name a subject (a whole actor held out for validation)")
+    if val_subject == test_subject:
+        raise ValueError(f"val_subject {val_subject!r} is the test subject; choose another actor")
+    if val_subject not in set(clips.subject):
+        raise ValueError(f"validation subject {val_subject!r} is not in the data")
+    split[(clips.subject.values == val_subject) & (split == "train")] = "val"
     return split
 
 
@@ -203,6 +212,7 @@ def build_dataset(config: DatasetConfig = DatasetConfig(), data_dir=None, cache:
                 hash=path.stem, build_seconds=round(time.perf_counter() - t0, 2),
                 test_subject=str(clips[clips.split == "test"].subject.value_counts().index[0]),
                 test_clips=clips[clips.split == "test"]["clip"].tolist(),
+                val_subject=config.val_subject,
                 val_clips=clips[clips.split == "val"]["clip"].tolist(),
                 n_train_clips=int(train_clips.sum()), n_frames=int(len(x)),
                 n_train_frames=int(len(train_rows)), train_mean_joint_speed=float(train_speed.mean()),

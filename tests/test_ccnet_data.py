@@ -42,28 +42,50 @@ def test_trajectory_control_hand_case():
     np.testing.assert_allclose(c[-1], expect, atol=1e-6)  # extrapolated past the end at the same speed
 
 
-def test_split_holds_out_a_subject_and_one_clip_per_other_subject(ds):
+def test_split_holds_out_a_test_subject_a_val_subject_and_one_clip_per_other_subject(ds):
     clips = ds.clips
-    test_subject = ds.meta["test_subject"]
+    test_subject, val_subject = ds.meta["test_subject"], ds.meta["val_subject"]
+    assert (test_subject, val_subject) == ("tr", "mm")
     assert set(clips.split) == {"train", "val", "test"}
     assert (clips[clips.subject == test_subject].split == "test").all()
-    n_val = 0
     for subject, g in clips[clips.subject != test_subject].groupby("subject"):
         usable = g[(g.stop - g.start >= ds.config.window + 2) & g.trainable]
         n_test = (g.split == "test").sum()
         assert n_test == (1 if len(usable) >= 2 else 0), subject
-        # validation: one usable clip of each subject with >= 3 usable clips left after the test one
-        val = g[g.split == "val"]
-        assert len(val) == (1 if len(usable) - n_test >= 3 else 0), subject
-        assert val.index.isin(usable.index).all()
-        assert (usable.split == "train").sum() >= (2 if len(val) else min(1, len(usable))), subject
-        n_val += len(val)
-    assert n_val == 4  # the four HDM05 actors other than the test one; CMU subjects stay in training
+        if subject == val_subject:
+            # the whole validation actor, except the clip the (unchanged) test draw took
+            assert (g.split == "val").sum() == len(g) - n_test, subject
+        else:
+            assert not (g.split == "val").any(), subject
+            assert (usable.split == "train").sum() >= min(1, len(usable)), subject
+    # validation is one whole actor and nothing else
+    assert set(clips[clips.split == "val"].subject) == {val_subject}
     assert set(ds.meta["test_clips"]) == set(clips[clips.split == "test"]["clip"])
     assert set(ds.meta["val_clips"]) == set(clips[clips.split == "val"]["clip"])
     assert ds.meta["n_train_clips"] == (clips.split == "train").sum()
-    # the test split is the one chosen before validation existed (dataset version 1, seed 7)
+    # per-split clip counts (seed 7): mm has 44 clips, one of which the test draw took
+    assert clips.split.value_counts().to_dict() == {"train": 200, "test": 59, "val": 43}
+    # the test split is the one of dataset versions 1 and 2 (seed 7): tr + one clip per other
+    # subject, including this mm clip, which stays in test
     assert len(ds.meta["test_clips"]) == 59
+    assert clips[(clips.subject == val_subject) & (clips.split == "test")]["clip"].tolist() == [
+        "HDM_mm_kickLFront1Reps_023_120"]
+
+
+def test_val_subject_must_differ_from_test_subject_and_exist(ds):
+    from dataclasses import replace
+
+    from data_prep.ccnet_dataset import _choose_split
+    long_enough = ((ds.clips.stop - ds.clips.start) >= ds.config.window + 2).values & ds.clips.trainable.values
+    np.testing.assert_array_equal(_choose_split(ds.clips, ds.config, long_enough), ds.clips.split.values)
+    with pytest.raises(ValueError, match="is the test subject"):
+        _choose_split(ds.clips, replace(ds.config, test_subject="mm"), long_enough)
+    with pytest.raises(ValueError, match="not in the data"):
+        _choose_split(ds.clips, replace(ds.config, val_subject="zz"), long_enough)
+    # another validation actor: the test split does not move
+    other = _choose_split(ds.clips, replace(ds.config, val_subject="bk"), long_enough)
+    np.testing.assert_array_equal(other == "test", ds.clips.split.values == "test")
+    assert set(ds.clips.subject[other == "val"]) == {"bk"}
 
 
 def test_normaliser_uses_training_clips_only(ds):
