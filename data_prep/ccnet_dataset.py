@@ -31,8 +31,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -43,6 +41,7 @@ from tqdm.auto import tqdm
 
 from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
 from data_prep.sources import find_data_dir
+from mocapviz.atomic import atomic_path
 from mocapviz.features import ccnet as feat
 from mocapviz.skeleton import CCNET_25_JOINTS
 
@@ -224,19 +223,12 @@ def build_dataset(config: DatasetConfig = DatasetConfig(), data_dir=None, cache:
 
 
 def save_dataset(ds: CCNetDataset, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
     arrays = dict(x=ds.x, traj=ds.traj, skel=ds.skel, offsets=ds.offsets, parents=ds.parents,
                   clips=np.frombuffer(ds.clips.to_json(orient="split").encode(), dtype=np.uint8),
                   meta=np.frombuffer(json.dumps(ds.meta).encode(), dtype=np.uint8))
     arrays.update({f"norm_{k}": v for k, v in ds.normaliser.state_dict().items()})
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp.npz", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path, suffix=".tmp.npz") as tmp:
         np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def load_dataset(path: str | Path, config: DatasetConfig | None = None) -> CCNetDataset:

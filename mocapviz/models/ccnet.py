@@ -179,7 +179,6 @@ class CCNetStepper:
         self.cfg = cfg = model.cfg
         self.batch = batch
         c = cfg.channels
-        nb = len(cfg.dilations)
         with torch.no_grad():
             gate_scale = torch.cat([torch.ones(c), torch.full((c,), 0.5)]).to(dtype)
             st, tr, bias = [], [], []

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +18,7 @@ from safetensors import safe_open
 from safetensors.torch import save_file
 
 from mocapviz.features.ccnet import Normaliser
+from mocapviz.atomic import atomic_path
 from mocapviz.models.ccnet import CCNet, CCNetConfig
 
 FORMAT = "mocapviz.ccnet.v1"
@@ -36,7 +36,6 @@ def _optim_tensors(opt: torch.optim.Optimizer) -> tuple[dict, str]:
 def save_checkpoint(path, model: CCNet, normaliser: Normaliser, meta: dict | None = None,
                     optimizer: torch.optim.Optimizer | None = None) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     tensors = {f"model.{k}": v.detach().contiguous().clone() for k, v in model.state_dict().items()}
     tensors.update({f"norm.{k}": torch.from_numpy(v) for k, v in normaliser.state_dict().items()})
     metadata = {"format": FORMAT, "model_config": model.cfg.to_json()}
@@ -46,14 +45,8 @@ def save_checkpoint(path, model: CCNet, normaliser: Normaliser, meta: dict | Non
         t, groups = _optim_tensors(optimizer)
         tensors.update(t)
         metadata["optim_param_groups"] = groups
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         save_file(tensors, tmp, metadata=metadata)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

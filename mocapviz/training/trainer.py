@@ -33,6 +33,7 @@ import torch
 import torch.distributed as dist
 from tqdm.auto import tqdm
 
+from mocapviz.atomic import atomic_path
 from mocapviz.features.ccnet import FeatureLayout
 from mocapviz.models.ccnet import CCNet, CCNetConfig, make_config
 from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint
@@ -150,12 +151,10 @@ def evaluate(model: CCNet, data: WindowData, pairs: np.ndarray, lambdas=LAMBDAS,
 
 
 def _write_csv(path: Path, rows: list[dict]) -> None:
-    tmp = path.with_suffix(".csv.tmp")
-    with open(tmp, "w", newline="") as f:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as f:
         w = csv.DictWriter(f, CSV_FIELDS)
         w.writeheader()
         w.writerows(rows)
-    os.replace(tmp, path)
 
 
 def _read_csv(path: Path, upto: int) -> list[dict]:
