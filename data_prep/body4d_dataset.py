@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from data_prep.cached import load_or_build
 from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
 from mocapviz.atomic import atomic_path
 from data_prep.sources import find_data_dir
@@ -159,16 +160,13 @@ def build_dataset(config: Body4DConfig = Body4DConfig(), data_dir=None, cache: b
     root = find_data_dir(data_dir)
     cache_dir = Path(cache_dir) if cache_dir is not None else CACHE_DIR / "body4d"
     path = cache_dir / f"body4d-{dataset_hash(config, root)}.npz"
-    if cache and path.is_file():
-        try:
-            return load_dataset(path)
-        except Exception as e:  # truncated or stale: rebuild
-            print(f"ignoring unreadable dataset cache {path}: {e}")
-    ds = _build(config, root, progress)
-    ds.meta["hash"] = path.stem
-    if cache:
-        save_dataset(ds, path)
-    return ds
+
+    def build() -> Body4DDataset:
+        ds = _build(config, root, progress)
+        ds.meta["hash"] = path.stem
+        return ds
+
+    return load_or_build(path, load_dataset, build, save_dataset, cache)
 
 
 def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:

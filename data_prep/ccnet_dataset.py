@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from data_prep.cached import load_or_build
 from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
 from data_prep.sources import find_data_dir
 from mocapviz.atomic import atomic_path
@@ -191,11 +192,11 @@ def build_dataset(config: DatasetConfig = DatasetConfig(), data_dir=None, cache:
     root = find_data_dir(data_dir)
     cache_dir = Path(cache_dir) if cache_dir is not None else CACHE_DIR / "ccnet"
     path = cache_dir / f"ccnet-{dataset_hash(config, root)}.npz"
-    if cache and path.is_file():
-        try:
-            return load_dataset(path, config)
-        except Exception as e:  # truncated or stale: rebuild
-            print(f"ignoring unreadable dataset cache {path}: {e}")
+    return load_or_build(path, lambda p: load_dataset(p, config), lambda: _build(config, root, path, progress),
+                         save_dataset, cache)
+
+
+def _build(config: DatasetConfig, root: Path, path: Path, progress: bool) -> CCNetDataset:
     t0 = time.perf_counter()
     x, traj, skel, clips, offsets, names, parents = _extract(config, root, progress)
     layout = feat.FeatureLayout(len(names))
@@ -216,10 +217,7 @@ def build_dataset(config: DatasetConfig = DatasetConfig(), data_dir=None, cache:
                 n_train_clips=int(train_clips.sum()), n_frames=int(len(x)),
                 n_train_frames=int(len(train_rows)), train_mean_joint_speed=float(train_speed.mean()),
                 motion_types=list(feat.MOTION_TYPES), joint_names=list(names))
-    ds = CCNetDataset(x, traj, skel, clips, normaliser, config, names, offsets, parents, meta)
-    if cache:
-        save_dataset(ds, path)
-    return ds
+    return CCNetDataset(x, traj, skel, clips, normaliser, config, names, offsets, parents, meta)
 
 
 def save_dataset(ds: CCNetDataset, path: Path) -> None:
