@@ -45,7 +45,8 @@ from IPython.display import Image, display
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from mocapviz import zoo
 from mocapviz.features.ccnet import joint_speed
-from mocapviz.ik import foot_slide
+from mocapviz.ik import foot_joints
+from mocapviz.metrics import foot_sliding
 from mocapviz.models.ccnet import count_parameters, receptive_field
 from mocapviz.tasks.generate import Generator, clip_types, freezing_share
 from mocapviz.training.trainer import TRAIN_CONFIGS, WindowData, evaluate
@@ -225,9 +226,9 @@ for label, clip in subjects.items():
     clean = out.motion(0, ds.skeleton(row), start, r.heading, ik=True, name=f"ccnet_generated_{tag}")
     generated[label] = dict(out=out, raw=raw, clean=clean, clip=clip)
     speed = np.linalg.norm(np.diff(raw.root_positions[seed:, [0, 2]], axis=0), axis=1).mean() * 60
+    slide = lambda m: foot_sliding(m.positions(), raw.meta["contacts"], m.fps, foot_joints(m.skeleton))  # noqa: E731
     print(f"{label:14s} seed {clip}: {n} frames in {dt:.2f} s; height {ds.clips.height[row]:.2f} m; root speed "
-          f"{speed:.2f} m/s; foot slide {foot_slide(raw, raw.meta['contacts']):.3f} -> "
-          f"{foot_slide(clean, raw.meta['contacts']):.3f} m/s with IK")
+          f"{speed:.2f} m/s; foot slide {slide(raw):.3f} -> {slide(clean):.3f} m/s with IK")
 
 # %%
 series = {k: joint_speed(v["out"].x[0], layout) for k, v in generated.items()}
