@@ -7,7 +7,7 @@ export VTK_DEFAULT_OPENGL_WINDOW ?= vtkEGLRenderWindow
 export PYVISTA_OFF_SCREEN ?= true
 export MPLBACKEND ?= Agg
 
-.PHONY: setup demo test test-unit test-notebooks bench clean
+.PHONY: setup demo lab test test-unit test-notebooks bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,11 @@ setup: $(VENV)/.installed
 demo: setup
 	$(PY) -m data_prep build
 	$(PY) tools/run_notebooks.py --all $(if $(FULL),--full,--quick)
+
+# JupyterLab on the notebooks, with the project's kernel (the venv's python3, from setup).
+# Jupyter refuses to run as root (containers) unless told; LAB_ARGS passes more options.
+lab: setup
+	$(VENV)/bin/jupyter lab notebooks/ $(if $(filter 0,$(shell id -u)),--allow-root) $(LAB_ARGS)
 
 test: setup
 	$(PY) -m pytest -q tests

@@ -1,6 +1,12 @@
-"""Two-bone leg IK and contact-triggered foot locking (foot-sliding cleanup, paper §3.1).
+"""Two-bone leg IK and contact-triggered foot locking (foot-sliding cleanup, CCNet paper §3.1).
 
-Convention as everywhere: local rotations, global = parent_global @ local, column vectors.
+One IK serves both callers: CCNet's foot locking (:func:`remove_foot_sliding`, on local
+rotations) and retargeting onto anny (:func:`mocapviz.bodies.retarget.retarget`, on global
+rotations). It works in world terms: bend the knee in the plane of the hip, the current knee
+and the target, swing the thigh so the knee lands there, then turn the shin onto the target.
+Every other joint keeps its global rotation, so the foot keeps its orientation.
+
+Convention as everywhere: global = parent_global @ local, column vectors, metres, Y up.
 """
 
 from __future__ import annotations
@@ -9,47 +15,73 @@ import numpy as np
 
 from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
-from mocapviz.rotations import rotvec_to_matrix
+from mocapviz.skeleton import Skeleton
 
+# The leg chains and feet of the VICON/CMU tree (and its 25-joint CCNet subset, and anny's cmu_mb rig).
 LEGS = (("LeftUpLeg", "LeftLeg", "LeftFoot"), ("RightUpLeg", "RightLeg", "RightFoot"))
+FEET = (("LeftFoot", "LeftToeBase"), ("RightFoot", "RightToeBase"))
 
 
-def _unit(v):
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
+def foot_joints(skeleton: Skeleton, feet=FEET) -> list[list[int]]:
+    """Joint indices of each foot (``[[left ankle, left toe], [right ankle, right toe]]``)."""
+    return [[skeleton.index(n) for n in foot] for foot in feet]
 
 
-def _angle(u, v):
-    return np.arccos(np.clip(np.sum(_unit(u) * _unit(v), axis=-1), -1.0, 1.0))
+def global_to_local(global_rotations: np.ndarray, parents) -> np.ndarray:
+    """Local rotations (..., J, 3, 3) from global ones (the inverse of FK's rotation part)."""
+    parents = np.asarray(parents)
+    local = np.array(global_rotations, copy=True)
+    local[..., 1:, :, :] = np.swapaxes(global_rotations[..., parents[1:], :, :], -1, -2) @ global_rotations[..., 1:, :, :]
+    return local
 
 
-def two_bone_ik(local_rot: np.ndarray, global_rot: np.ndarray, pos: np.ndarray, chain, target: np.ndarray,
-                eps: float = 1e-4) -> np.ndarray:
-    """Local rotations (F, J, 3, 3) with the chain (hip a, knee b, ankle c) bent so c reaches
-    ``target`` (F, 3) as far as the bone lengths allow (Holden's analytic two-joint IK).
+def _batch_min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Smallest rotations (N, 3, 3) taking directions a (N, 3) to b (N, 3) (not opposite)."""
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    v = np.cross(a, b)
+    c = np.einsum("ni,ni->n", a, b)
+    vx = np.zeros(a.shape[:-1] + (3, 3))
+    vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    vx[..., 1, 0], vx[..., 2, 0], vx[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return np.eye(3) + vx + vx @ vx / np.maximum(1 + c, 1e-9)[..., None, None]
 
-    ``global_rot``/``pos`` are the FK of ``local_rot``. Only joints a and b change.
+
+def two_bone_ik(global_rotations: np.ndarray, positions: np.ndarray, skeleton: Skeleton, targets: dict,
+                legs=LEGS) -> np.ndarray:
+    """Bend hip and knee so that each ankle reaches its target (F, 3) in metres.
+
+    ``global_rotations`` (F, J, 3, 3) and ``positions`` (F, J, 3) are the FK of a pose on
+    ``skeleton``; ``targets`` maps an ankle name of ``legs`` to its target (legs without a
+    target are left alone). The hips stay where they are, the knee bends towards the side it
+    already points to (forward about the thigh's x axis when the leg is straight), and every
+    other global rotation is kept (the foot keeps its orientation). A target beyond the
+    leg's reach is approached along the line from the hip, the leg straight (full length).
+    Returns the new global rotations (F, J, 3, 3).
     """
-    a_i, b_i, c_i = chain
-    a, b, c = pos[:, a_i], pos[:, b_i], pos[:, c_i]
-    lab = np.linalg.norm(b - a, axis=-1)
-    lcb = np.linalg.norm(c - b, axis=-1)
-    lat = np.clip(np.linalg.norm(target - a, axis=-1), eps, lab + lcb - eps)
-    ac_ab_0 = _angle(c - a, b - a)
-    ba_bc_0 = _angle(a - b, c - b)
-    ac_at_0 = _angle(c - a, target - a)
-    ac_ab_1 = np.arccos(np.clip((lcb ** 2 - lab ** 2 - lat ** 2) / (-2 * lab * lat), -1, 1))
-    ba_bc_1 = np.arccos(np.clip((lat ** 2 - lab ** 2 - lcb ** 2) / (-2 * lab * lcb), -1, 1))
-    axis0 = _unit(np.cross(c - a, b - a))
-    axis1 = _unit(np.cross(c - a, target - a))
-    a_gr, b_gr = global_rot[:, a_i], global_rot[:, b_i]
-    a_inv, b_inv = np.swapaxes(a_gr, -1, -2), np.swapaxes(b_gr, -1, -2)
-    r0 = rotvec_to_matrix(np.einsum("fab,fb->fa", a_inv, axis0) * (ac_ab_1 - ac_ab_0)[:, None])
-    r1 = rotvec_to_matrix(np.einsum("fab,fb->fa", b_inv, axis0) * (ba_bc_1 - ba_bc_0)[:, None])
-    r2 = rotvec_to_matrix(np.einsum("fab,fb->fa", a_inv, axis1) * ac_at_0[:, None])
-    out = local_rot.copy()
-    out[:, a_i] = local_rot[:, a_i] @ r0 @ r2
-    out[:, b_i] = local_rot[:, b_i] @ r1
-    return out
+    glob = np.array(global_rotations, dtype=np.float64, copy=True)
+    for hip_n, knee_n, ankle_n in legs:
+        if ankle_n not in targets:
+            continue
+        h, k, a = (skeleton.index(n) for n in (hip_n, knee_n, ankle_n))
+        H, K, A, T = positions[:, h], positions[:, k], positions[:, a], np.asarray(targets[ankle_n])
+        l1, l2 = np.linalg.norm(skeleton.offsets[k]), np.linalg.norm(skeleton.offsets[a])
+        ht = T - H
+        d = np.clip(np.linalg.norm(ht, axis=-1), abs(l1 - l2), l1 + l2)  # reachable hip-ankle distance
+        u = ht / np.linalg.norm(ht, axis=-1, keepdims=True)
+        bend = (K - H) - np.einsum("ni,ni->n", K - H, u)[:, None] * u  # pole: the current knee side
+        bend_n = np.linalg.norm(bend, axis=-1, keepdims=True)
+        fallback = np.cross(u, glob[:, h, :, 0])  # a straight leg: bend forward about the thigh's x axis
+        bend = np.where(bend_n > 1e-6, bend / np.maximum(bend_n, 1e-12),
+                        fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
+        cos_a = np.clip((l1 ** 2 + d ** 2 - l2 ** 2) / (2 * l1 * d), -1.0, 1.0)  # law of cosines at the hip
+        K_new = H + l1 * (cos_a[:, None] * u + np.sqrt(1 - cos_a ** 2)[:, None] * bend)
+        r1 = _batch_min_rotation(K - H, K_new - H)
+        glob[:, h] = r1 @ glob[:, h]
+        shin_old = np.einsum("nij,nj->ni", r1, A - K)
+        r2 = _batch_min_rotation(shin_old, H + d[:, None] * u - K_new)
+        glob[:, k] = r2 @ r1 @ glob[:, k]
+    return glob
 
 
 def contact_segments(labels: np.ndarray) -> list[tuple[int, int]]:
@@ -80,25 +112,11 @@ def foot_lock_targets(ankle: np.ndarray, contact: np.ndarray, blend: int = 5) ->
 def remove_foot_sliding(motion: Motion, contacts: np.ndarray, legs=LEGS, blend: int = 5) -> Motion:
     """Motion with each foot held still while its contact label (F, 2) is on (two-bone IK)."""
     sk = motion.skeleton
-    rot = motion.rotations.copy()
-    for leg, labels in zip(legs, np.asarray(contacts, dtype=bool).T):
-        chain = [sk.index(n) for n in leg]
-        pos, grot = forward_kinematics(rot, motion.root_positions, sk.offsets, sk.parents, return_rotations=True)
-        target = foot_lock_targets(pos[:, chain[2]], labels, blend)
-        rot = two_bone_ik(rot, grot, pos, chain, target)
+    pos, glob = forward_kinematics(motion.rotations, motion.root_positions, sk.offsets, sk.parents,
+                                   return_rotations=True)
+    targets = {leg[2]: foot_lock_targets(pos[:, sk.index(leg[2])], labels, blend)
+               for leg, labels in zip(legs, np.asarray(contacts, dtype=bool).T)}
+    rot = global_to_local(two_bone_ik(glob, pos, sk, targets, legs), sk.parents)
     out = Motion(sk, rot, motion.root_positions.copy(), motion.fps, name=motion.name, meta=dict(motion.meta))
     out.meta["foot_ik"] = True
     return out
-
-
-def foot_slide(motion: Motion, contacts: np.ndarray, legs=LEGS) -> float:
-    """Mean horizontal ankle speed (m/s) over frames where that foot's contact label is on."""
-    pos = motion.positions()
-    speeds = []
-    for leg, labels in zip(legs, np.asarray(contacts, dtype=bool).T):
-        p = pos[:, motion.skeleton.index(leg[2])][:, [0, 2]]
-        v = np.linalg.norm(np.diff(p, axis=0), axis=-1) * motion.fps
-        on = labels[1:] & labels[:-1]
-        if on.any():
-            speeds.append(v[on])
-    return float(np.concatenate(speeds).mean()) if speeds else 0.0

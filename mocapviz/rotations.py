@@ -1,7 +1,10 @@
 """Rotation conversions on numpy arrays.
 
 Convention everywhere in mocapviz: rotation matrices act on column vectors, and a joint's
-global rotation is ``parent_global @ local``.
+global rotation is ``parent_global @ local``. Quaternions: no public function here takes or
+returns one; the private helpers below are scalar-first (W, X, Y, Z), while ``roma``
+(and so anny) is scalar-last (X, Y, Z, W) -- convert explicitly if one ever crosses over.
+Rotation vectors are axis * angle in radians; the 6-D form is the first two matrix columns.
 
 Matrix -> rotation vector, quaternion and 6-D Gram-Schmidt go through ``roma`` (torch).
 Two conversions on the file-reading path are written in plain numpy because they run on
@@ -26,6 +29,7 @@ def _t(x: np.ndarray) -> torch.Tensor:
 
 
 def _quat_mul(a, b):
+    """Hamilton product of two (W, X, Y, Z) quaternions given as 4-tuples of arrays."""
     aw, ax, ay, az = a
     bw, bx, by, bz = b
     return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
@@ -106,25 +110,20 @@ def rotvec_to_matrix(rotvec: np.ndarray) -> np.ndarray:
 
 
 def matrix_to_rotvec(mats: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) to rotation vectors (..., 3), radians (roma)."""
     return roma.rotmat_to_rotvec(_t(mats)).numpy()
 
 
-def matrix_to_quat(mats: np.ndarray) -> np.ndarray:
-    """Unit quaternions (..., 4) in roma's XYZW order."""
-    return roma.rotmat_to_unitquat(_t(mats)).numpy()
-
-
-def quat_to_matrix(quats: np.ndarray) -> np.ndarray:
-    return roma.unitquat_to_rotmat(_t(quats)).numpy()
-
-
-def matrix_to_6d(mats: np.ndarray) -> np.ndarray:
-    """Continuous 6-D form (Zhou et al. 2019): the first two columns, column-major flattened."""
+def matrix_to_sixd(mats: np.ndarray) -> np.ndarray:
+    """Matrices (..., 3, 3) to the continuous 6-D form (..., 6) of Zhou et al. 2019: the first
+    two columns, column-major flattened. Inverse: :func:`sixd_to_matrix`."""
     mats = np.asarray(mats)
     return np.concatenate([mats[..., :, 0], mats[..., :, 1]], axis=-1)
 
 
 def sixd_to_matrix(sixd: np.ndarray) -> np.ndarray:
+    """6-D forms (..., 6) to rotation matrices (..., 3, 3) by Gram-Schmidt (roma); any two
+    independent columns give a rotation. Inverse of :func:`matrix_to_sixd` on rotations."""
     sixd = _t(sixd)
     return roma.special_gramschmidt(torch.stack([sixd[..., :3], sixd[..., 3:]], dim=-1)).numpy()
 

@@ -48,7 +48,7 @@ import pandas as pd
 from IPython.display import Image, display
 
 from data_prep.catalog import build_catalog, load_motion, summary_table
-from mocapviz.viz import plots, scene, subject_colors
+from mocapviz.viz import plots, scene, show_figure, subject_colors
 
 fig_dir = Path(FIG_DIR)
 fig_dir.mkdir(parents=True, exist_ok=True)
@@ -88,7 +88,7 @@ pd.DataFrame({"CCNet paper": paper, "ours (HDM05 + CMU)": ours})
 colors = subject_colors(table.index.get_level_values("subject"), table.index.get_level_values("source"))
 fig = plots.plot_dataset_minutes(catalog, table.index.get_level_values("subject"),
                                  fig_dir / "dataset_seconds_per_subject.png")
-plots.show(fig)
+show_figure(fig)
 
 # %% [markdown]
 # HDM05 gives each actor minutes of varied motion; the CMU clips are seconds long (some are
@@ -133,7 +133,7 @@ scene.show(p, fig_dir / "ccnet_fig03a_skeletons.png")
 # %%
 bones = plots.bone_length_table(skeletons)
 fig = plots.plot_bone_lengths(bones, colors, fig_dir / "ccnet_bone_lengths.png")
-plots.show(fig)
+show_figure(fig)
 
 # %%
 bones.describe().loc[["mean", "std", "min", "max"]].round(3)
@@ -202,4 +202,4 @@ row = ds.clip_row("HDM_bd_jogLeftCircle4StepsRstart_001_120")
 r, arrays = ds.clips.iloc[row], ds.clip_arrays(row)
 fig = plot_controls(arrays["x"], arrays["traj"], (r.root_x, r.root_y, r.root_z), r.heading,
                     title=f"{r['clip']} (type {r['type']})", path=fig_dir / "ccnet_representation_controls.png")
-plots.show(fig)
+show_figure(fig)

@@ -45,11 +45,12 @@ from IPython.display import Image, display
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from mocapviz import zoo
 from mocapviz.features.ccnet import joint_speed
-from mocapviz.ik import foot_slide
+from mocapviz.ik import foot_joints
+from mocapviz.metrics import foot_sliding
 from mocapviz.models.ccnet import count_parameters, receptive_field
 from mocapviz.tasks.generate import Generator, clip_types, freezing_share
 from mocapviz.training.trainer import TRAIN_CONFIGS, WindowData, evaluate
-from mocapviz.viz import plots, scene
+from mocapviz.viz import scene, show_figure
 from mocapviz.viz.ccnet import plot_controls, plot_joint_speed, plot_training_curves
 
 torch.set_num_threads(1)
@@ -98,7 +99,7 @@ row = ds.clip_row("HDM_bd_jogLeftCircle4StepsRstart_001_120")
 r, a = ds.clips.iloc[row], ds.clip_arrays(row)
 fig = plot_controls(a["x"], a["traj"], (r.root_x, r.root_y, r.root_z), r.heading,
                     title=f"{r['clip']} (type {r['type']})", path=fig_dir / "ccnet_representation_controls.png")
-plots.show(fig)
+show_figure(fig)
 
 # %% [markdown]
 # ## 2 · The network (§3.2)
@@ -163,7 +164,7 @@ if QUICK:  # a short demonstration of the training loop itself (the curves above
     print(f"60 quick steps in {time.perf_counter() - t:.0f} s")
     curves["quick, 60-step demo"] = Path("../cache/runs/notebook_demo/losses.csv")
 fig = plot_training_curves({k: v for k, v in curves.items() if v.is_file()}, path=fig_dir / "ccnet_training_curves.png")
-plots.show(fig)
+show_figure(fig)
 
 # %% [markdown]
 # Model selection uses the **validation** split only: every 250 steps the trainer evaluates the
@@ -225,13 +226,13 @@ for label, clip in subjects.items():
     clean = out.motion(0, ds.skeleton(row), start, r.heading, ik=True, name=f"ccnet_generated_{tag}")
     generated[label] = dict(out=out, raw=raw, clean=clean, clip=clip)
     speed = np.linalg.norm(np.diff(raw.root_positions[seed:, [0, 2]], axis=0), axis=1).mean() * 60
+    slide = lambda m: foot_sliding(m.positions(), raw.meta["contacts"], m.fps, foot_joints(m.skeleton))  # noqa: E731
     print(f"{label:14s} seed {clip}: {n} frames in {dt:.2f} s; height {ds.clips.height[row]:.2f} m; root speed "
-          f"{speed:.2f} m/s; foot slide {foot_slide(raw, raw.meta['contacts']):.3f} -> "
-          f"{foot_slide(clean, raw.meta['contacts']):.3f} m/s with IK")
+          f"{speed:.2f} m/s; foot slide {slide(raw):.3f} -> {slide(clean):.3f} m/s with IK")
 
 # %%
 series = {k: joint_speed(v["out"].x[0], layout) for k, v in generated.items()}
-plots.show(plot_joint_speed(series, ds.meta["train_mean_joint_speed"], path=fig_dir / "ccnet_generated_speed.png"))
+show_figure(plot_joint_speed(series, ds.meta["train_mean_joint_speed"], path=fig_dir / "ccnet_generated_speed.png"))
 
 # %% [markdown]
 # Rendered with pyvista (quick mode: 6 frames/s and a film strip; full mode: 30 frames/s mp4).

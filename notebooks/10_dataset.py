@@ -41,7 +41,7 @@ FIG_DIR = "../figures"
 #    time since the start divided by 3 s, the initial root heading turned to face $+Z$.
 #
 # Everything below calls the library (`mocapviz.bodies`, `mocapviz.features.cycles`,
-# `data_prep.body4d_dataset`, `mocapviz.viz.body_scene`).
+# `data_prep.body4d_dataset`, `mocapviz.viz`).
 
 # %%
 from pathlib import Path
@@ -58,9 +58,8 @@ from data_prep.catalog import build_catalog, load_motion
 from mocapviz.bodies import BETA_LABELS, body_model
 from mocapviz.bodies.retarget import retarget, retarget_report
 from mocapviz.features.cycles import hip_flexion, segment_cycles
-from mocapviz.viz import body_scene as bs
-from mocapviz.viz.colors import subject_colors
-from mocapviz.viz.scene import set_notebook_backend, show
+from mocapviz.viz import (cycle_strips, plot_counts, plot_durations, plot_segmentation, retarget_overlay,
+                          save_figure, set_notebook_backend, shape_lineup, show, subject_colors)
 
 torch.set_num_threads(2)
 set_notebook_backend(QUICK)
@@ -96,8 +95,8 @@ subjects = ds.subjects.set_index("subject")
 display(subjects[["source", "split", "err_before_cm", "err_after_cm", "max_after_cm", "height_m", *BETA_LABELS]].round(3))
 colors = subject_colors(subjects.index, subjects["source"])
 betas = {s: subjects.loc[s, list(BETA_LABELS)].values.astype(np.float32) for s in subjects.index}
-p = bs.shape_lineup(body, betas, colors, heights=subjects["height_m"].to_dict(),
-                    title="anny bodies fitted to each subject's bone lengths (rest A-pose)")
+p = shape_lineup(body, betas, colors, heights=subjects["height_m"].to_dict(),
+                 title="anny bodies fitted to each subject's bone lengths (rest A-pose)")
 show(p, fig_dir / "body4d_fig_shapes.png")
 
 # %% [markdown]
@@ -105,8 +104,9 @@ show(p, fig_dir / "body4d_fig_shapes.png")
 #
 # The source skeleton (red) drawn inside the retargeted anny mesh at a few frames. The numbers:
 # mean distance between corresponding joints (hips, knees, ankles, balls of the feet, shoulders,
-# elbows, wrists) over every frame, and the foot sliding (ground-plane speed of a foot while the
-# source says it is in contact) for the source and for anny.
+# elbows, wrists) over every frame, and the foot sliding (ground-plane speed of a foot's slowest
+# joint, ankle or ball, while the source says it is in contact: `mocapviz.metrics.foot_sliding`)
+# for the source and for anny.
 
 # %%
 display(ds.clips.groupby("type")[["joint_err_cm", "joint_err_max_cm", "slide_source_cm_s", "slide_anny_cm_s"]]
@@ -116,7 +116,7 @@ row = cat[cat["clip"] == REFERENCE_CLIP].iloc[0]
 src = load_motion(row)
 anny_motion = retarget(src, body.rest_skeleton(betas[row["subject"]]))
 print(retarget_report(src, anny_motion))
-p = bs.retarget_overlay(body, betas[row["subject"]], src, anny_motion, frames=[0, 80, 160, 240])
+p = retarget_overlay(body, betas[row["subject"]], src, anny_motion, frames=[0, 80, 160, 240])
 show(p, fig_dir / "body4d_fig_retarget.png")
 
 # %% [markdown]
@@ -134,12 +134,12 @@ show_clips = [REFERENCE_CLIP] + [ds.cycles[ds.cycles.type == t]["clip"].iloc[0] 
 fig, axes = plt.subplots(len(show_clips), 1, figsize=(11, 2.4 * len(show_clips)), squeeze=False)
 for ax, clip in zip(axes[:, 0], show_clips):
     m = load_motion(cat[cat["clip"] == clip].iloc[0])
-    bs.plot_segmentation(ax, hip_flexion(m), m.fps, segment_cycles(m, refs),
-                         reference=REFERENCE_FRAMES if clip == REFERENCE_CLIP else None,
-                         title=f"{clip} ({m.meta['motion_type']}, {m.meta['subject']})")
+    plot_segmentation(ax, hip_flexion(m), m.fps, segment_cycles(m, refs),
+                      reference=REFERENCE_FRAMES if clip == REFERENCE_CLIP else None,
+                      title=f"{clip} ({m.meta['motion_type']}, {m.meta['subject']})")
 axes[0, 0].legend(fontsize=8, loc="lower right")
 fig.tight_layout()
-fig.savefig(fig_dir / "body4d_fig_segmentation.png", dpi=120)
+save_figure(fig, fig_dir / "body4d_fig_segmentation.png")
 
 # %% [markdown]
 # Two-legged hops (HDM05 `hopBothLegs1hops`) flex both hips **in phase**: no segment of them is
@@ -154,12 +154,12 @@ counts = ds.counts()
 display(counts)
 print("split:", ds.cycles.groupby("split").size().to_dict(), "— test subjects:", ds.meta["test_subjects"])
 fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 3.6))
-bs.plot_counts(a1, counts, colors)
+plot_counts(a1, counts, colors)
 a1.set_title("cycles per motion type and subject")
-bs.plot_durations(a2, ds.cycles[~ds.cycles.mirrored])
+plot_durations(a2, ds.cycles[~ds.cycles.mirrored])
 a2.set_title("cycle durations")
 fig.tight_layout()
-fig.savefig(fig_dir / "body4d_fig_stats.png", dpi=120)
+save_figure(fig, fig_dir / "body4d_fig_stats.png")
 
 # %% [markdown]
 # ## Cycles as time-coloured frame strips (paper Fig. 6 style)
@@ -171,7 +171,7 @@ fig.savefig(fig_dir / "body4d_fig_stats.png", dpi=120)
 picks = [int(ds.cycles.index[ds.cycles.type == t][0]) for t in ("walk", "run", "jog", "sneak")
          if (ds.cycles.type == t).any()]
 labels = [f"{ds.cycles.type[i]} | {ds.cycles.subject[i]} | {ds.cycles.duration_s[i]:.2f} s" for i in picks]
-bs.cycle_strips(body, [ds.mesh(i).numpy() for i in picks], labels, path=fig_dir / "body4d_fig_cycles.png")
+cycle_strips(body, [ds.mesh(i).numpy() for i in picks], labels, path=fig_dir / "body4d_fig_cycles.png")
 display(Image(filename=str(fig_dir / "body4d_fig_cycles.png")))
 
 # %% [markdown]

@@ -60,3 +60,13 @@ def test_chi_mesh_chi_round_trip(body, real_cycle):
     np.testing.assert_allclose(chi2, chi, atol=2e-4)
     verts2 = mesh_chi(body, beta, chi2, GAMMA_SCALE)
     assert float((verts2 - verts).norm(dim=-1).max()) < 1e-4  # metres
+
+
+def test_sixd_pair_round_trips_real_rotations(real_cycle):
+    """matrix_to_sixd keeps the first two columns; sixd_to_matrix rebuilds the third."""
+    from mocapviz.rotations import matrix_to_sixd, sixd_to_matrix
+    rot = real_cycle[1]  # (N, J, 3, 3) local rotations of a real cycle
+    sixd = matrix_to_sixd(rot)
+    np.testing.assert_array_equal(sixd[..., :3], rot[..., :, 0])
+    np.testing.assert_array_equal(sixd[..., 3:], rot[..., :, 1])
+    np.testing.assert_allclose(sixd_to_matrix(sixd), rot, atol=1e-9)

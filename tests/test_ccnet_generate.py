@@ -5,7 +5,8 @@ import pytest
 import torch
 
 from mocapviz import zoo
-from mocapviz.ik import foot_slide, remove_foot_sliding
+from mocapviz.ik import foot_joints, remove_foot_sliding
+from mocapviz.metrics import foot_sliding
 from mocapviz.models.ccnet import CCNetStepper, NumpyStepper
 from mocapviz.tasks.generate import Generator, clip_types, freezing_share, full_recompute_outputs, step_outputs
 
@@ -94,9 +95,9 @@ def test_foot_ik_removes_sliding_and_keeps_bones(ds):
     row = ds.clip_row("35_01")
     m = ds.clip_motion(row)
     contacts = m.meta["contacts"]
-    before = foot_slide(m, contacts)
+    before = foot_sliding(m.positions(), contacts, m.fps, foot_joints(m.skeleton))
     out = remove_foot_sliding(m, contacts)
-    after = foot_slide(out, contacts)
+    after = foot_sliding(out.positions(), contacts, out.fps, foot_joints(out.skeleton))
     assert before > 0.05 and after < 0.25 * before
     bones = lambda mo: np.linalg.norm(mo.positions()[:, 1:] - mo.positions()[:, mo.skeleton.parents[1:]], axis=-1)  # noqa: E731
     np.testing.assert_allclose(bones(out), bones(m), atol=1e-9)

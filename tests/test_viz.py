@@ -160,6 +160,28 @@ def test_subject_colors_distinct():
     assert len(set(cols.values())) == len(subs)
 
 
+def test_save_figure_writes_the_file_and_its_folder(tmp_path):
+    import matplotlib.pyplot as plt
+
+    from mocapviz.viz import save_figure
+    fig, ax = plt.subplots(figsize=(2, 1))
+    ax.plot([0, 1], [0, 1])
+    path = save_figure(fig, tmp_path / "new" / "f.png", dpi=50)
+    assert path == tmp_path / "new" / "f.png" and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert save_figure(fig, None) is None
+    plt.close(fig)
+
+
+def test_viz_facade_exports_every_name_without_loading_pyvista():
+    code = ("import sys, mocapviz.viz as v; assert 'pyvista' not in sys.modules; "
+            "names = [getattr(v, n) for n in v.__all__]; print(len(names), 'pyvista' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    import mocapviz.viz as viz
+    assert out.stdout.split() == [str(len(viz.__all__)), "True"]
+    with pytest.raises(AttributeError):
+        viz.no_such_name  # noqa: B018
+
+
 # ------------------------------------------------------------------ rendering (off screen)
 scene = pytest.importorskip("mocapviz.viz.scene")
 

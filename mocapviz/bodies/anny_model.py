@@ -126,7 +126,8 @@ class BodyModel:
     def index(self, name: str) -> int:
         return self.joint_names.index(name)
 
-    def _beta(self, beta) -> torch.Tensor:
+    def beta_tensor(self, beta) -> torch.Tensor:
+        """``beta`` (6,) or (B, 6), array or tensor, as a float32 tensor (B, 6); checks the size."""
         beta = torch.as_tensor(np.asarray(beta, dtype=np.float32) if not torch.is_tensor(beta) else beta,
                                dtype=torch.float32)
         if beta.ndim == 1:
@@ -137,7 +138,7 @@ class BodyModel:
 
     def blendshape_coefficients(self, beta) -> torch.Tensor:
         """anny's blendshape coefficients (B, K) for phenotypes ``beta`` (B, 6); differentiable."""
-        beta = self._beta(beta)
+        beta = self.beta_tensor(beta)
         empty = beta.new_zeros((beta.shape[0], 0))
         labels = list(self.anny.phenotype_labels)
         order = [BETA_LABELS.index(k) for k in labels]
@@ -222,7 +223,7 @@ class BodyModel:
         root (F, 3). Returns vertices (F, V, 3) (and posed joint heads) in metres, Y up."""
         pose = self.pose_parameters(rotations, root_positions)
         with torch.no_grad():
-            out = self.anny(pose, phenotype_kwargs=self._beta(beta)[:, self._anny_order])
+            out = self.anny(pose, phenotype_kwargs=self.beta_tensor(beta)[:, self._anny_order])
         bone_poses = out["bone_poses"]
         return BodyMesh(out["vertices"], bone_poses[..., :3, 3] if joints else None)
 
@@ -230,7 +231,7 @@ class BodyModel:
         """Mesh several sequences in one batch: betas (B, 6), rotations (B, F, J, 3, 3),
         roots (B, F, 3) -> vertices (B, F, V, 3). Each body's rest shape is computed once;
         posing and skinning run on all B x F frames together."""
-        betas = self._beta(betas)
+        betas = self.beta_tensor(betas)
         rot = torch.as_tensor(rotations, dtype=torch.float32)
         root = torch.as_tensor(root_positions, dtype=torch.float32)
         n_b, n_f = rot.shape[:2]

@@ -25,7 +25,7 @@ import torch
 from mocapviz.bodies.anny_model import BodyModel
 from mocapviz.bodies.retarget import STATIC_JOINTS
 from mocapviz.features.cycles import MAX_CYCLE_S
-from mocapviz.rotations import matrix_to_6d, sixd_to_matrix
+from mocapviz.rotations import matrix_to_sixd, sixd_to_matrix
 
 N_FRAMES = 100
 PHI_SCALE = MAX_CYCLE_S
@@ -37,10 +37,6 @@ IDENTITY_6D = np.array([1.0, 0.0, 0.0, 0.0, 1.0, 0.0])
 def chi_joint_indices(body_joint_names) -> np.ndarray:
     """Indices (into the body's joints) of the joints kept in Theta, in body order."""
     return np.array([j for j, n in enumerate(body_joint_names) if n not in DROPPED_JOINTS])
-
-
-def chi_size(n_kept: int) -> int:
-    return 6 * n_kept + 3 + 1
 
 
 def split_chi(chi: np.ndarray, n_kept: int):
@@ -79,7 +75,7 @@ def encode(rotations: np.ndarray, root: np.ndarray, times: np.ndarray, kept: np.
     """chi (N, 6K + 4) of a resampled cycle: local rotations (N, J, 3, 3) of the body's
     joints, root (N, 3), times (N,) in seconds from the cycle start."""
     rot, rel, _, _ = canonicalise(rotations, root)
-    theta = matrix_to_6d(rot[:, kept]) - IDENTITY_6D
+    theta = matrix_to_sixd(rot[:, kept]) - IDENTITY_6D
     gamma = rel / np.asarray(gamma_scale)
     phi = (times - times[0]) / PHI_SCALE
     return np.concatenate([theta.reshape(len(theta), -1), gamma, phi[:, None]], axis=1).astype(np.float32)

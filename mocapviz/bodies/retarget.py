@@ -22,7 +22,7 @@ Method (global rotation transfer with a rest alignment):
 3. Root: anny's Hips head is translated so that the midpoint of its hip joints follows the
    source's hip midpoint exactly (the Hips joint itself sits ~10 cm higher in CMU than in
    anny, so matching it would lift the feet).
-4. Ankles: two-bone IK on each leg (hip and knee, knee plane kept, foot orientation kept)
+4. Ankles: two-bone IK (:func:`mocapviz.ik.two_bone_ik`) on each leg (hip and knee, knee plane kept, foot orientation kept)
    puts anny's ankles on the source's ankles in every frame, so leg-length differences left
    by the shape fit do not turn into foot sliding.
 """
@@ -33,8 +33,9 @@ import warnings
 
 import numpy as np
 
-from mocapviz.bodies.anny_model import BodyModel
+from mocapviz.ik import FEET, LEGS, foot_joints, global_to_local, two_bone_ik
 from mocapviz.kinematics import foot_contacts, forward_kinematics
+from mocapviz.metrics import foot_sliding, joint_position_errors
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
 
@@ -45,7 +46,6 @@ STATIC_JOINTS = ("LHipJoint", "RHipJoint", "LeftShoulder", "RightShoulder", "Lef
 EVAL_JOINTS = ("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "RightUpLeg", "RightLeg",
                "RightFoot", "RightToeBase", "LeftArm", "LeftForeArm", "LeftHand", "RightArm",
                "RightForeArm", "RightHand")
-FEET = (("LeftFoot", "LeftToeBase"), ("RightFoot", "RightToeBase"))
 _EPS = 1e-4
 
 
@@ -131,50 +131,6 @@ def hip_midpoint(skeleton: Skeleton, positions: np.ndarray) -> np.ndarray:
     return 0.5 * (positions[..., skeleton.index("LeftUpLeg"), :] + positions[..., skeleton.index("RightUpLeg"), :])
 
 
-def _batch_min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest rotations (N, 3, 3) taking directions a (N, 3) to b (N, 3) (not opposite)."""
-    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    v = np.cross(a, b)
-    c = np.einsum("ni,ni->n", a, b)
-    vx = np.zeros(a.shape[:-1] + (3, 3))
-    vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    vx[..., 1, 0], vx[..., 2, 0], vx[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
-    return np.eye(3) + vx + vx @ vx / np.maximum(1 + c, 1e-9)[..., None, None]
-
-
-LEGS = (("LeftUpLeg", "LeftLeg", "LeftFoot"), ("RightUpLeg", "RightLeg", "RightFoot"))
-
-
-def two_bone_ik(glob: np.ndarray, pos: np.ndarray, skeleton: Skeleton, targets: dict) -> np.ndarray:
-    """Bend hip and knee so that each ankle reaches its target (F, 3), keeping the hips
-    where they are, the knee's bending plane, and every other global rotation (the foot keeps
-    its orientation). ``glob``/``pos``: global rotations (F, J, 3, 3) and positions (F, J, 3).
-    Returns the new global rotations; unreachable targets are approached along the leg line."""
-    glob = glob.copy()
-    for hip_n, knee_n, ankle_n in LEGS:
-        if ankle_n not in targets:
-            continue
-        h, k, a = (skeleton.index(n) for n in (hip_n, knee_n, ankle_n))
-        H, K, A, T = pos[:, h], pos[:, k], pos[:, a], targets[ankle_n]
-        l1, l2 = np.linalg.norm(skeleton.offsets[k]), np.linalg.norm(skeleton.offsets[a])
-        ht = T - H
-        d = np.clip(np.linalg.norm(ht, axis=-1), abs(l1 - l2) + 1e-4, l1 + l2 - 1e-4)
-        u = ht / np.linalg.norm(ht, axis=-1, keepdims=True)
-        bend = (K - H) - np.einsum("ni,ni->n", K - H, u)[:, None] * u  # pole: the current knee side
-        bend_n = np.linalg.norm(bend, axis=-1, keepdims=True)
-        fallback = np.cross(u, glob[:, h, :, 0])  # a straight leg: bend forward about the thigh's x axis
-        bend = np.where(bend_n > 1e-6, bend / np.maximum(bend_n, 1e-12), fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
-        cos_a = np.clip((l1 ** 2 + d ** 2 - l2 ** 2) / (2 * l1 * d), -1.0, 1.0)
-        K_new = H + l1 * (cos_a[:, None] * u + np.sqrt(1 - cos_a ** 2)[:, None] * bend)
-        r1 = _batch_min_rotation(K - H, K_new - H)
-        glob[:, h] = r1 @ glob[:, h]
-        shin_old = np.einsum("nij,nj->ni", r1, A - K)
-        r2 = _batch_min_rotation(shin_old, H + d[:, None] * u - K_new)
-        glob[:, k] = r2 @ r1 @ glob[:, k]
-    return glob
-
-
 def retarget(motion: Motion, target: Skeleton, Q: np.ndarray | None = None, ik_ankles: bool = True) -> Motion:
     """``motion`` on the ``target`` skeleton (e.g. ``BodyModel.rest_skeleton(beta)``).
 
@@ -201,61 +157,41 @@ def retarget(motion: Motion, target: Skeleton, Q: np.ndarray | None = None, ik_a
             glob[:, j] = src_glob[:, idx[j]] @ Q[j]
         else:
             glob[:, j] = glob[:, target.parents[j]] @ (Q[target.parents[j]].T @ Q[j])
-    local = np.empty_like(glob)
-    local[:, 0] = glob[:, 0]
-    local[:, 1:] = np.swapaxes(glob[:, target.parents[1:]], -1, -2) @ glob[:, 1:]
+    local = global_to_local(glob, target.parents)
     zero_root = forward_kinematics(local, np.zeros((motion.n_frames, 3)), target.offsets, target.parents)
     root = hip_midpoint(src, src_pos) - hip_midpoint(target, zero_root)
     if ik_ankles:
         pos = forward_kinematics(local, root, target.offsets, target.parents)
         targets = {leg[2]: src_pos[:, src.index(leg[2])] for leg in LEGS if leg[2] in src.names}
-        glob = two_bone_ik(glob, pos, target, targets)
-        local[:, 1:] = np.swapaxes(glob[:, target.parents[1:]], -1, -2) @ glob[:, 1:]
+        local = global_to_local(two_bone_ik(glob, pos, target, targets), target.parents)
     out = Motion(target, local, root, motion.fps, name=motion.name, meta=dict(motion.meta))
     out.meta["retargeted_from"] = motion.name
     return out
 
 
-def retarget_to_body(motion: Motion, body: BodyModel, beta) -> Motion:
-    return retarget(motion, body.rest_skeleton(beta))
-
-
 def joint_errors(source: Motion, target: Motion, joints=EVAL_JOINTS) -> np.ndarray:
     """Per-frame, per-joint distance (F, len(joints)) in metres between corresponding joints."""
-    ps, pt = source.positions(), target.positions()
     i_s = [source.skeleton.index(n) for n in joints]
     i_t = [target.skeleton.index(n) for n in joints]
-    return np.linalg.norm(ps[:, i_s] - pt[:, i_t], axis=-1)
-
-
-def foot_sliding(motion: Motion, contacts: np.ndarray, feet=FEET) -> float:
-    """Mean horizontal speed (m/s) of feet during contact frames (``contacts`` (F, 2)).
-
-    A foot's speed is the mean of its ankle and toe joints' ground-plane speeds.
-    """
-    pos = motion.positions()
-    speeds = []
-    for i, names in enumerate(feet):
-        idx = [motion.skeleton.index(n) for n in names]
-        p = pos[:, idx][..., [0, 2]].mean(1)
-        v = np.linalg.norm(np.gradient(p, axis=0), axis=-1) * motion.fps
-        speeds.append(v[contacts[:, i]])
-    speeds = np.concatenate(speeds)
-    return float(speeds.mean()) if len(speeds) else float("nan")
+    return joint_position_errors(source.positions()[:, i_s], target.positions()[:, i_t])
 
 
 def source_contacts(motion: Motion, feet=FEET) -> np.ndarray:
     """Foot contact labels (F, 2) of a motion (height and speed thresholds, per foot)."""
-    idx = [[motion.skeleton.index(n) for n in names] for names in feet]
-    return foot_contacts(motion.positions(), motion.fps, idx)
+    return foot_contacts(motion.positions(), motion.fps, foot_joints(motion.skeleton, feet))
 
 
 def retarget_report(source: Motion, target: Motion) -> dict:
-    """Joint error (cm, mean over EVAL_JOINTS and frames) and foot sliding (cm/s) of both."""
+    """Joint error (cm, mean over EVAL_JOINTS and frames) and foot sliding (cm/s, ankle and toe:
+    :func:`mocapviz.metrics.foot_sliding`) of both, on the source's contact frames."""
     err = joint_errors(source, target)
     contacts = source_contacts(source)
+
+    def slide(m: Motion) -> float:
+        return foot_sliding(m.positions(), contacts, m.fps, foot_joints(m.skeleton))
+
     return {"clip": source.name, "frames": source.n_frames, "joint_err_cm": 100 * float(err.mean()),
             "joint_err_max_cm": 100 * float(err.max()),
-            "slide_source_cm_s": 100 * foot_sliding(source, contacts),
-            "slide_anny_cm_s": 100 * foot_sliding(target, contacts),
+            "slide_source_cm_s": 100 * slide(source),
+            "slide_anny_cm_s": 100 * slide(target),
             "contact_frames": int(contacts.sum())}

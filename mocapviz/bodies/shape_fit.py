@@ -74,7 +74,7 @@ def _anny_segment_lengths(body: BodyModel, beta: torch.Tensor) -> torch.Tensor:
 
 def anny_segment_lengths(body: BodyModel, beta) -> np.ndarray:
     with torch.no_grad():
-        return _anny_segment_lengths(body, body._beta(beta)).numpy()
+        return _anny_segment_lengths(body, body.beta_tensor(beta)).numpy()
 
 
 @dataclass
@@ -98,10 +98,6 @@ class ShapeFit:
         for i, k in enumerate(BETA_LABELS):
             df[k] = self.beta[:, i]
         return df
-
-    def segment_report(self) -> pd.DataFrame:
-        """Signed error (cm, anny minus subject) per subject and segment, after fitting."""
-        return pd.DataFrame(100 * self.after, index=self.subjects, columns=list(SEGMENTS))
 
 
 def fit_shapes(body: BodyModel, skeletons: dict, steps: int = 100, lr: float = 0.1,

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocapviz.ik import FEET
 from mocapviz.kinematics import foot_contacts
 from mocapviz.motion import Motion
 from mocapviz.rotations import matrix_to_rotvec, rotvec_to_matrix
@@ -36,7 +37,6 @@ from mocapviz.skeleton import Skeleton
 
 FPS = 60.0
 TRAJ_STEPS = (10, 20, 30, 40, 50, 60)  # frames ahead sampled by c^d (one second at 60 fps)
-FEET = (("LeftFoot", "LeftToeBase"), ("RightFoot", "RightToeBase"))
 ACROSS = (("LeftUpLeg", "RightUpLeg"), ("LeftShoulder", "RightShoulder"))
 
 # Merged motion types. HDM05's 11 classes keep their own type, except where a CMU clip shows

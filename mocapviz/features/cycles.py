@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from dtaidistance import dtw_ndim
 
+from mocapviz.ik import LEGS
 from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
 from mocapviz.rotations import slerp_matrices
@@ -45,7 +46,7 @@ def hip_flexion(motion: Motion) -> np.ndarray:
     pelvis = glob[:, 0]
     fwd = _forward_axis(motion)
     out = []
-    for hip, knee in (("LeftUpLeg", "LeftLeg"), ("RightUpLeg", "RightLeg")):
+    for hip, knee, _ in LEGS:
         d = pos[:, sk.index(knee)] - pos[:, sk.index(hip)]
         d = np.einsum("fji,fj->fi", pelvis, d)  # into the pelvis frame (R^T d)
         out.append(np.degrees(np.arctan2(d @ fwd, -d[:, 1])))

@@ -1,6 +1,6 @@
-"""Views of anny bodies and 4D cycles (notebook 10): shape line-ups, retargeting overlays,
-time-coloured frame strips (the paper's Fig. 6 style), and the matplotlib figures of the
-segmentation and the dataset statistics.
+"""pyvista views of anny bodies and 4D cycles (notebook 10): shape line-ups, retargeting
+overlays, time-coloured frame strips (the paper's Fig. 6 style). The matplotlib figures of
+the segmentation and the dataset statistics are in :mod:`mocapviz.viz.body_plots`.
 
 Reuses the building blocks of :mod:`mocapviz.viz.scene` (plotter, ground, camera, skeleton
 tubes, screenshots); meshes come from :class:`mocapviz.bodies.BodyModel` (metres, Y up).
@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 import pyvista as pv
-from matplotlib import colormaps
-from matplotlib.colors import to_hex
 
 from mocapviz.motion import Motion
 from mocapviz.viz import geometry as geo
-from mocapviz.viz.scene import _fit_points, _look, _plotter, add_ground, skeleton_mesh
+from mocapviz.viz.colors import time_colors
+from mocapviz.viz.scene import add_ground, aim_camera, distance_to_fit, new_plotter, skeleton_mesh
 
 
 def body_polydata(vertices, faces: np.ndarray) -> pv.PolyData:
@@ -44,7 +43,7 @@ def shape_lineup(body, betas: dict, colors: dict | None = None, heights: dict | 
     span = xs[-1] - xs[0] + widths.max() + 0.4
     top = float((rest[..., 1].max(1) - rest[..., 1].min(1)).max()) + 0.35
     window_size = (width_px, int(np.clip(width_px * (top + 0.3) / span, 320, 900)))
-    p = _plotter(window_size)
+    p = new_plotter(window_size)
     labels, spots = [], []
     for k, n in enumerate(names):
         v = rest[k].copy()
@@ -59,7 +58,7 @@ def shape_lineup(body, betas: dict, colors: dict | None = None, heights: dict | 
     if title:
         p.add_text(title, position="upper_left", font_size=12, color="black")
     pts = np.concatenate([np.array(spots), [[xs[0] - widths[0], 0, 0], [xs[-1] + widths[-1], 0, 0]]])
-    _look(p, (0.0, top / 2 - 0.1, 0.0), (0, 0, -1), _fit_points(pts, (0.0, top / 2 - 0.1, 0.0), (0, 0, -1),
+    aim_camera(p, (0.0, top / 2 - 0.1, 0.0), (0, 0, -1), distance_to_fit(pts, (0.0, top / 2 - 0.1, 0.0), (0, 0, -1),
                                                                  window_size, 6.0), 6.0)
     return p
 
@@ -72,7 +71,7 @@ def retarget_overlay(body, beta, source: Motion, retargeted: Motion, frames, col
     frames = list(frames)
     verts = body.mesh(beta, retargeted.rotations[frames], retargeted.root_positions[frames]).vertices.numpy()
     pos = source.positions()[frames]
-    p = _plotter(window_size)
+    p = new_plotter(window_size)
     for k, f in enumerate(frames):
         p.add_mesh(body_polydata(verts[k], body.faces), color=color, opacity=0.35, smooth_shading=True)
         seg = geo.bone_segments(pos[k], source.skeleton.parents)
@@ -85,17 +84,11 @@ def retarget_overlay(body, beta, source: Motion, retargeted: Motion, frames, col
     view = np.cross([0.0, 1.0, 0.0], travel) if np.linalg.norm(travel[[0, 2]]) > 0.2 else np.array([0, 0, -1.0])
     view = view / np.linalg.norm(view)
     focal = (center[0], center[1], center[2])
-    _look(p, focal, view, _fit_points(pts, focal, view, window_size, 10.0), 10.0)
+    aim_camera(p, focal, view, distance_to_fit(pts, focal, view, window_size, 10.0), 10.0)
     return p
 
 
 # ---------------------------------------------------------------- Fig. 6 style
-def time_colors(n: int, cmap: str = "viridis") -> list[str]:
-    """``n`` colours from the start (dark) to the end (light) of a cycle."""
-    cm = colormaps[cmap]
-    return [to_hex(cm(x)) for x in np.linspace(0.0, 0.95, n)]
-
-
 def cycle_strip(body, vertices, label: str = "", n: int = 8, cmap: str = "viridis",
                 window_size=(1500, 420)) -> pv.Plotter:
     """One cycle as a frame strip colour-coded by time (paper Fig. 6): ``n`` of its frames
@@ -103,7 +96,7 @@ def cycle_strip(body, vertices, label: str = "", n: int = 8, cmap: str = "viridi
     seen from its left side so that travel (+Z after canonicalisation) runs left to right."""
     verts = np.asarray(vertices)
     idx = np.linspace(0, len(verts) - 1, n).round().astype(int)
-    p = _plotter(window_size)
+    p = new_plotter(window_size)
     for c, i in zip(time_colors(n, cmap), idx):
         p.add_mesh(body_polydata(verts[i], body.faces), color=c, smooth_shading=True, specular=0.2)
     pts = verts[idx][:, ::40].reshape(-1, 3)
@@ -113,7 +106,7 @@ def cycle_strip(body, vertices, label: str = "", n: int = 8, cmap: str = "viridi
     if label:
         p.add_text(label, position="upper_left", font_size=11, color="black")
     view = np.array([1.0, 0.0, 0.0])
-    _look(p, center, view, _fit_points(pts, center, view, window_size, 8.0), 8.0)
+    aim_camera(p, center, view, distance_to_fit(pts, center, view, window_size, 8.0), 8.0)
     return p
 
 
@@ -131,48 +124,3 @@ def cycle_strips(body, cycles: list, labels: list | None = None, path=None, **kw
     if path is not None:
         imageio.imwrite(path, img)
     return img
-
-
-# ---------------------------------------------------------------- matplotlib figures
-def plot_segmentation(ax, curves: np.ndarray, fps: float, cycles, reference=None, title: str = ""):
-    """Hip flexion curves (F, 2) over time with detected cycles shaded and boundaries marked
-    (left-start cycles in blue, right-start in red)."""
-    t = np.arange(len(curves)) / fps
-    ax.plot(t, curves[:, 0], color="#1f77b4", label="left hip flexion")
-    ax.plot(t, curves[:, 1], color="#d62728", label="right hip flexion")
-    for c in cycles:
-        col = "#1f77b4" if c.side == "L" else "#d62728"
-        ax.axvspan(c.start / fps, c.end / fps, color=col, alpha=0.08)
-        for f in (c.start, c.end):
-            ax.axvline(f / fps, color=col, ls="--", lw=1)
-        ax.text((c.start + c.end) / 2 / fps, np.nanmax(curves) + 2,
-                f"{c.side} {c.distance:.1f}", ha="center", fontsize=8, color=col)
-    if reference is not None:
-        ax.axvspan(reference[0] / fps, reference[1] / fps, color="k", alpha=0.06, label="reference cycle")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("flexion (deg)")
-    ax.set_title(title, fontsize=10)
-    return ax
-
-
-def plot_counts(ax, counts, colors: dict | None = None):
-    """Stacked bars: cycles per motion type, one colour per subject (``counts``: type x subject)."""
-    counts = counts.drop(index="total", columns="total", errors="ignore")
-    bottom = np.zeros(len(counts))
-    for subj in counts.columns:
-        vals = counts[subj].values
-        ax.bar(counts.index, vals, bottom=bottom, color=(colors or {}).get(subj), label=subj)
-        bottom += vals
-    ax.set_ylabel("cycles")
-    ax.legend(fontsize=7, ncol=2)
-    return ax
-
-
-def plot_durations(ax, cycles_df, bins=np.arange(0.3, 3.01, 0.1)):
-    """Histogram of cycle durations (s) per motion type."""
-    for typ, g in cycles_df.groupby("type"):
-        ax.hist(g["duration_s"], bins=bins, alpha=0.6, label=f"{typ} ({len(g)})")
-    ax.set_xlabel("cycle duration (s)")
-    ax.set_ylabel("cycles")
-    ax.legend(fontsize=8)
-    return ax

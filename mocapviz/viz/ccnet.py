@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, _yaw, integrate_root
+from mocapviz.viz.figures import save_figure
 
 
 def plot_controls(x: np.ndarray, traj: np.ndarray, start_root, start_heading: float, title: str = "",
@@ -46,9 +47,7 @@ def plot_controls(x: np.ndarray, traj: np.ndarray, start_root, start_heading: fl
     ax1.legend(fontsize=8, loc="upper right")
     fig.suptitle(title)
     fig.tight_layout()
-    if path is not None:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return fig
 
 
@@ -75,9 +74,7 @@ def plot_training_curves(runs: dict[str, str | Path], path: str | Path | None = 
         ax.set_title(title)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    if path is not None:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return fig
 
 
@@ -91,7 +88,5 @@ def plot_joint_speed(series: dict[str, np.ndarray], train_mean: float, path: str
     ax.set_ylabel("mean joint speed (m/s)")
     ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
-    if path is not None:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return fig

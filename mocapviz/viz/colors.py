@@ -1,7 +1,8 @@
-"""One colour per subject, shared by the 3D scenes and the matplotlib plots."""
+"""Colours shared by the 3D scenes and the matplotlib plots: one per subject, time ramps."""
 
 from __future__ import annotations
 
+import numpy as np
 from matplotlib import colormaps
 from matplotlib.colors import to_hex
 
@@ -28,3 +29,9 @@ def subject_colors(subjects, sources=None) -> dict[str, str]:
             out[subj] = to_hex(cool[n_cool % len(cool)])
             n_cool += 1
     return out
+
+
+def time_colors(n: int, cmap: str = "viridis") -> list[str]:
+    """``n`` colours from the start (dark) to the end (light) of a cycle."""
+    cm = colormaps[cmap]
+    return [to_hex(cm(x)) for x in np.linspace(0.0, 0.95, n)]

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocapviz.ik import LEGS
 from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
 from mocapviz.rotations import rotvec_to_matrix
@@ -88,7 +89,7 @@ def standing_pose(skeleton: Skeleton, arm_drop_deg: float = 65.0) -> Motion:
     """
     sk = skeleton
     rot = np.tile(np.eye(3), (1, sk.n_joints, 1, 1))
-    for hip, knee, ankle in (("LeftUpLeg", "LeftLeg", "LeftFoot"), ("RightUpLeg", "RightLeg", "RightFoot")):
+    for hip, knee, ankle in LEGS:
         j_hip, j_knee, j_ankle = (_chain_joint(sk, n) for n in (hip, knee, ankle))
         if None in (j_hip, j_knee, j_ankle):
             continue

@@ -8,6 +8,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from mocapviz.viz.figures import save_figure
+
 # The segment each VICON/CMU joint's offset measures (the bone that ends at that joint).
 # Joints whose offset is zero in every VICON tree (LHipJoint, LowerBack, ...) are absent.
 VICON_BONE_NAMES = {
@@ -20,22 +22,6 @@ VICON_BONE_NAMES = {
     "RightShoulder": "thorax→clav. R", "RightArm": "clavicle R", "RightForeArm": "upper arm R",
     "RightHand": "forearm R",
 }
-
-
-def show(fig) -> None:
-    """Display a figure as PNG in a notebook, whatever the matplotlib backend, and close it.
-
-    ``MPLBACKEND=Agg`` (set by the Makefile for headless runs) would otherwise leave the
-    notebook without the figure; closing it avoids a second copy under the inline backend.
-    """
-    import io
-
-    from IPython.display import Image, display
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    display(Image(data=buf.getvalue()))
 
 
 def bone_length_table(skeletons: dict, bones: dict | None = None) -> pd.DataFrame:
@@ -82,9 +68,7 @@ def plot_bone_lengths(table: pd.DataFrame, colors: dict | None = None, path: str
                       color="white" if v < vmid else "black")
     fig.colorbar(im, ax=ax_m, label="bone length (cm)", shrink=0.8)
     fig.suptitle(title)
-    if path is not None:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     return fig
 
 
@@ -105,7 +89,5 @@ def plot_dataset_minutes(catalog: pd.DataFrame, order=None, path: str | Path | N
     ax.set_xlabel("")
     ax.set_title("Motion per subject and type (HDM05 actors left, CMU subjects right)")
     ax.legend(fontsize=7, ncol=2, bbox_to_anchor=(1.01, 1), loc="upper left")
-    if path is not None:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     return fig

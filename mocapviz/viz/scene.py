@@ -78,7 +78,8 @@ def set_notebook_backend(quick: bool = True) -> str:
 
 
 # ---------------------------------------------------------------- building blocks
-def _plotter(window_size=WINDOW_SIZE, aa: str = "ssaa") -> pv.Plotter:
+def new_plotter(window_size=WINDOW_SIZE, aa: str = "ssaa") -> pv.Plotter:
+    """An off-screen-safe plotter of ``window_size`` (width, height) pixels, white, anti-aliased."""
     p = pv.Plotter(off_screen=pv.OFF_SCREEN or _headless(), window_size=list(window_size))
     p.set_background(BACKGROUND)
     p.enable_anti_aliasing(aa)
@@ -110,7 +111,7 @@ def add_ground(p: pv.Plotter, center, size: float | tuple[float, float], height:
     p.add_mesh(plane, color=GROUND_COLOR, show_edges=True, edge_color=GROUND_LINES, lighting=False)
 
 
-def _look(p: pv.Plotter, focal, view_dir, distance: float, elevation_deg: float = 12.0):
+def aim_camera(p: pv.Plotter, focal, view_dir, distance: float, elevation_deg: float = 12.0):
     """Camera at ``distance`` from ``focal``, looking along horizontal ``view_dir``, Y up."""
     view_dir = np.asarray(view_dir, dtype=np.float64)
     view_dir = view_dir / np.linalg.norm(view_dir)
@@ -123,9 +124,9 @@ def _look(p: pv.Plotter, focal, view_dir, distance: float, elevation_deg: float 
     p.renderer.ResetCameraClippingRange()  # else a moved camera clips the scene away
 
 
-def _fit_points(points: np.ndarray, focal, view_dir, window_size, elevation_deg: float,
+def distance_to_fit(points: np.ndarray, focal, view_dir, window_size, elevation_deg: float,
                 view_angle: float = 30.0, margin: float = 1.08) -> float:
-    """Smallest camera distance (camera as in :func:`_look`) that keeps every point in view."""
+    """Smallest camera distance (camera as in :func:`aim_camera`) that keeps every point in view."""
     view_dir = np.asarray(view_dir, dtype=np.float64) / np.linalg.norm(view_dir)
     el = np.deg2rad(elevation_deg)
     back = -view_dir * np.cos(el) + geo.UP * np.sin(el)
@@ -168,7 +169,7 @@ def skeleton_lineup(skeletons: dict, colors: dict | None = None, heights: dict |
     span = entries[-1].x - entries[0].x + 1.0
     h = max(e.label_at[1] for e in entries) + 0.45  # room for the two-line labels
     window_size = (width_px, int(np.clip(width_px * (h + 0.4) / span, 340, 900)))
-    p = _plotter(window_size)
+    p = new_plotter(window_size)
     for e in entries:
         p.add_mesh(skeleton_mesh(geo.all_segments(e.pose)[0], radius=0.016),
                    color=colors.get(e.name, "#4c72b0"), smooth_shading=True, specular=0.3)
@@ -178,7 +179,7 @@ def skeleton_lineup(skeletons: dict, colors: dict | None = None, heights: dict |
                        justification_horizontal="center")
     if title:
         p.add_text(title, position="upper_left", font_size=12, color="black")
-    _look(p, (0.0, h / 2 - 0.15, 0.0), (0, 0, -1), _fit_distance(span, h, window_size, margin=1.05), 8.0)
+    aim_camera(p, (0.0, h / 2 - 0.15, 0.0), (0, 0, -1), _fit_distance(span, h, window_size, margin=1.05), 8.0)
     pv.set_new_attribute(p, "lineup", entries)  # what was drawn, for captions and tests
     return p
 
@@ -203,7 +204,7 @@ class ClipScene:
         self.view_dir = -self.view_dir if self.view_dir[2] > 0 else self.view_dir  # from +Z side
         extent_h = float(np.abs((hi - lo)[[0, 2]] @ np.abs(travel[[0, 2]]))) if not follow else 1.6
         self.height = hi[1] - self.floor
-        self.p = _plotter(window_size)
+        self.p = new_plotter(window_size)
         ground = max(hi[0] - lo[0], hi[2] - lo[2]) + 10.0
         add_ground(self.p, self.center, ground, self.floor)
         if show_track and len(motion.root_positions) > 1:
@@ -224,8 +225,8 @@ class ClipScene:
         else:  # every pose of the clip in view
             pts = self.segments.reshape(-1, 3)
             pts = pts[:: max(1, len(pts) // 4000)]
-            d = _fit_points(pts, focal, self.view_dir, self.window_size, self.elevation)
-        _look(self.p, focal, self.view_dir, d, elevation_deg=self.elevation)
+            d = distance_to_fit(pts, focal, self.view_dir, self.window_size, self.elevation)
+        aim_camera(self.p, focal, self.view_dir, d, elevation_deg=self.elevation)
 
     def frame(self, i: int) -> pv.Plotter:
         mesh = skeleton_mesh(self.segments[i])  # tubes and spheres carry their own normals
