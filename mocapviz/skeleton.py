@@ -140,6 +140,53 @@ class Skeleton:
             partner.append(self.names.index(other) if other in self.names else self.names.index(n))
         return np.array(partner)
 
+    def body_root(self) -> int:
+        """The first joint, from the root down, that branches (Hips under a reference root)."""
+        j = 0
+        while len(kids := self.children(j)) == 1:
+            j = kids[0]
+        return j
+
+    def height_from_bones(self) -> float:
+        """Standing height estimated from bone lengths and the tree alone (any rest pose, any
+        axes): the leg (body root to ankle) plus the trunk (body root to the chest's branch
+        point, then its shortest branch, the neck and head, with the head's end).
+
+        Bones at and above the body root do not count (a reference root, or a placement
+        OFFSET such as Bandai's ``Hips`` that holds the take's start position). Used to guess
+        a file's unit: Bandai's rest skeleton lies along X, so heights read off the rest pose
+        are wrong there.
+        """
+        base = self.body_root()
+        lengths = self.bone_lengths()
+        tip = dict.fromkeys(range(self.n_joints), 0.0)  # longest end-site offset per joint
+        for j, off in self.end_sites:
+            tip[j] = max(tip[j], float(np.linalg.norm(off)))
+
+        def reach(j: int) -> tuple[float, float]:
+            """Longest path from j's bone start to a leaf's end, and that leaf's bone + end."""
+            kids = self.children(j)
+            if not kids:
+                return lengths[j] + tip[j], lengths[j] + tip[j]
+            total, tail = max(reach(c) for c in kids)
+            return lengths[j] + total, tail
+
+        def size(j: int) -> int:
+            return 1 + sum(size(c) for c in self.children(j))
+
+        kids = sorted(self.children(base), key=size)
+        if not kids:
+            return 0.0
+        trunk, j = 0.0, kids[-1]  # the trunk holds the most joints (arms, neck, head)
+        while len(self.children(j)) == 1:
+            trunk += lengths[j]
+            j = self.children(j)[0]
+        branches = self.children(j)
+        trunk += lengths[j] + (min(reach(c)[0] for c in branches) if branches else tip[j])
+        # a leg to the ankle: its longest path without the foot's last bone (the toe)
+        leg = max((reach(c)[0] - reach(c)[1] for c in kids[:-1]), default=0.0)
+        return float(trunk + leg)
+
     def standing_height(self) -> float:
         """Estimated standing height in metres: straightened leg plus trunk, head and feet.
 
