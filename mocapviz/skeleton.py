@@ -107,10 +107,6 @@ class Skeleton:
         return Skeleton(tuple(mapping.get(n, n) for n in self.names), self.parents,
                         self.offsets, self.end_sites)
 
-    def scaled(self, factor: float) -> "Skeleton":
-        ends = tuple((j, tuple(float(v) * factor for v in off)) for j, off in self.end_sites)
-        return Skeleton(self.names, self.parents, self.offsets * factor, ends)
-
     def keep_joints(self, names) -> tuple["Skeleton", np.ndarray]:
         """Sub-skeleton of the named joints, and their indices in this skeleton.
 

@@ -128,6 +128,8 @@ def read_asf(path: str | Path, text: str | None = None) -> AsfSkeleton:
                     raise MocapFormatError(path, lineno, f"bad root order {' '.join(parts[1:])}")
             elif key == "axis":
                 root_axis = parts[1].upper() if len(parts) > 1 else "XYZ"
+                if sorted(root_axis) != ["X", "Y", "Z"]:
+                    raise MocapFormatError(path, lineno, f"bad root axis order {root_axis!r}")
             elif key == "orientation":
                 bones["root"].axis = _floats(parts[1:], path, lineno, 3)
         elif section == ":bonedata":
@@ -141,6 +143,8 @@ def read_asf(path: str | Path, text: str | None = None) -> AsfSkeleton:
                 bones[bone.name] = bone
                 bone = None
             elif key == "name":
+                if len(parts) != 2:
+                    raise MocapFormatError(path, lineno, "'name' needs one bone name")
                 bone.name = parts[1]
             elif key == "direction":
                 bone.direction = _floats(parts[1:], path, lineno, 3)
@@ -184,14 +188,6 @@ def _acclaim_euler(values_deg: np.ndarray, order: str) -> np.ndarray:
     padded = np.zeros((values_deg.shape[0], 3))
     padded[:, :len(order)] = values_deg
     return euler_to_matrix(padded[:, ::-1], full[::-1])
-
-
-def _dof_rotation(values_deg: np.ndarray, dofs: list[str]) -> np.ndarray:
-    """(F, 3, 3) rotation of a bone's rotational dofs, in their listed order."""
-    rot = [d for d in dofs if d in _ROT_DOFS]
-    if not rot:
-        return np.broadcast_to(np.eye(3), values_deg.shape[:1] + (3, 3))
-    return _acclaim_euler(values_deg[:, [dofs.index(d) for d in rot]], "".join(d[1].upper() for d in rot))
 
 
 def _parse_amc_frames(text: str, path, bone_dofs: dict[str, int]):
