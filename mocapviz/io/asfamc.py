@@ -20,6 +20,7 @@ import numpy as np
 
 from mocapviz.errors import MocapFormatError
 from mocapviz.io._text import fast_number_table, read_text
+from mocapviz.io.axes import to_y_up
 from mocapviz.motion import Motion
 from mocapviz.rotations import euler_to_matrix
 from mocapviz.skeleton import Skeleton
@@ -295,8 +296,9 @@ def _parse_amc_slow(lines, start, path, bone_dofs):
 
 
 def read_amc(amc_path: str | Path, asf: AsfSkeleton | str | Path, fps: float = 120.0,
-             text: str | None = None) -> Motion:
-    """Read an AMC motion for an ASF skeleton (an :class:`AsfSkeleton` or a path to one)."""
+             up: str = "y", text: str | None = None) -> Motion:
+    """Read an AMC motion for an ASF skeleton (an :class:`AsfSkeleton` or a path to one), in
+    metres; ``up`` is the file's up axis ("y", "z" or "auto"), converted to Y up."""
     if not isinstance(asf, AsfSkeleton):
         asf = read_asf(asf)
     text = read_text(amc_path) if text is None else text
@@ -338,4 +340,4 @@ def read_amc(amc_path: str | Path, asf: AsfSkeleton | str | Path, fps: float = 1
             out[:, idx] = euler_to_matrix(stacked[..., ::-1], order[::-1], axes=axes[idx])
         return out
     meta = {"source": str(amc_path), "format": "amc", "asf": asf.path, "length_unit": asf.length_unit}
-    return Motion(skeleton, rotations, root_positions, fps, name=Path(str(amc_path)).stem, meta=meta)
+    return to_y_up(Motion(skeleton, rotations, root_positions, fps, name=Path(str(amc_path)).stem, meta=meta), up)
