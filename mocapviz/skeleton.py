@@ -288,8 +288,14 @@ class Skeleton:
         The rest pose of VICON skeletons splays the legs by ~20 degrees, so the rest-pose
         bounding box underestimates height; summing bone lengths along the vertical chains
         (root -> head end, hip -> ankle) plus the ankle's height above the toe does not.
+        A rest pose that does not stand along Y (Bandai's lies along X; its rotations stand
+        it up) falls back to :meth:`height_from_bones`.
         """
         rest = self.rest_positions()
+        by_bones = self.height_from_bones()
+        base = self.body_root()
+        if np.ptp(rest[[j for j in range(self.n_joints) if base in self.chain(j)], 1]) < 0.5 * by_bones:
+            return by_bones
         ends = self.end_site_positions()
         top_candidates = [(j, rest[j][1]) for j in range(self.n_joints)]
         for (j, _), p in zip(self.end_sites, ends):

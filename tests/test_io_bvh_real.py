@@ -206,3 +206,14 @@ def test_translation_on_the_roots_child_moves_the_body(tmp_path):
     folded = read_bvh(p, length_unit=0.01, drop_static_root=True)
     assert folded.skeleton.names == ("Hips", "Spine")
     np.testing.assert_allclose(folded.root_positions, m.positions()[:, 1], atol=1e-12)
+
+
+@needs_bandai
+def test_heights_of_a_lying_rest_skeleton_come_from_its_bones():
+    # Bandai's rest skeleton lies along X (its rotations stand it up): heights from the rest
+    # pose are meaningless; the bone chains give the posed head height's order of magnitude.
+    m = read_bvh(BANDAI[0], drop_static_root=True)
+    head = m.positions()[:, m.skeleton.index("Head"), 1].max() - m.positions()[..., 1].min()
+    for sk in (m.skeleton, read_bvh(BANDAI[0]).skeleton):  # with or without the reference root
+        assert sk.standing_height() == sk.height_from_bones()
+        assert 0.9 * head < sk.standing_height() < 1.1 * head
