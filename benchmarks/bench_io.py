@@ -1,6 +1,6 @@
 """Reader throughput: mocapviz vs PyPI peers on the same real files, and catalog build time.
 
-Usage: .venv/bin/python benchmarks/bench_io.py [--repeats 3] [--amc-step 2]
+Usage: .venv/bin/python benchmarks/bench_io.py [--repeats 3] [--amc-step 2] [--bandai-step 10]
 
 Every reader parses the same files from disk in one process; each peer does its own full
 parse (pybvh.read_bvh_file, bvhio.readAsBvh, bvh.Bvh(text) — the `bvh` package only
@@ -68,6 +68,23 @@ def bvh_readers():
     return readers
 
 
+def time_bvh_readers(files: list[Path], label: str, repeats: int) -> dict[str, float]:
+    """MB/s of every BVH reader on ``files`` (best of ``repeats`` for ours and pybvh, else 1)."""
+    mb = sum(p.stat().st_size for p in files) / 1e6
+    print(f"BVH: {len(files)} {label} files, {mb:.2f} MB, best of {repeats}")
+    rates = {}
+    for name, fn in bvh_readers().items():
+        reps = repeats if name.startswith("mocapviz") or name == "pybvh" else 1
+        try:
+            t = best_time(lambda: [fn(p) for p in files], reps)
+        except Exception as err:  # noqa: BLE001 - a peer that cannot read these files
+            print(f"  {name:12s} failed: {err!r}"[:200])
+            continue
+        rates[name] = mb / t
+        print(f"  {name:12s} {rates[name]:8.1f} MB/s  ({t:.3f} s)")
+    return rates
+
+
 def amc_readers(skip: dict):
     def ours(asf_path, amc_paths, matrices=False):
         asf = read_asf(asf_path)
@@ -104,23 +121,13 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--amc-step", type=int, default=2, help="use every k-th HDM05 clip (same files for all)")
+    ap.add_argument("--bandai-step", type=int, default=10, help="use every k-th Bandai take (same files for all)")
     args = ap.parse_args(argv)
     data = find_data_dir()
     summary = {}
 
     bvh_files = sorted((data / "cmu").glob("*/*.bvh"))
-    bvh_mb = sum(p.stat().st_size for p in bvh_files) / 1e6
-    print(f"BVH: {len(bvh_files)} CMU files, {bvh_mb:.2f} MB, best of {args.repeats}")
-    bvh_rates = {}
-    for name, fn in bvh_readers().items():
-        reps = args.repeats if name.startswith("mocapviz") or name == "pybvh" else 1
-        try:
-            t = best_time(lambda: [fn(p) for p in bvh_files], reps)
-        except Exception as err:  # noqa: BLE001
-            print(f"  {name:12s} failed: {err!r}")
-            continue
-        bvh_rates[name] = bvh_mb / t
-        print(f"  {name:12s} {bvh_rates[name]:8.1f} MB/s  ({t:.3f} s)")
+    bvh_rates = time_bvh_readers(bvh_files, "CMU", args.repeats)
     peers = {k: v for k, v in bvh_rates.items() if not k.startswith("mocapviz")}
     best_peer = max(peers, key=peers.get) if peers else None
     summary.update(bvh_mb_s=round(bvh_rates["mocapviz"], 2), best_bvh_peer=best_peer,
@@ -128,9 +135,12 @@ def main(argv=None):
                    bvh_ratio=round(bvh_rates["mocapviz"] / peers[best_peer], 3) if best_peer else None,
                    bvh_with_matrices_ratio=round(bvh_rates["mocapviz+matrices"] / peers[best_peer], 3)
                    if best_peer else None)
-    for slow in ("bvhio", "bvh"):
-        if slow in peers:
-            print(f"  mocapviz / {slow}: {bvh_rates['mocapviz'] / peers[slow]:.1f}x")
+    bandai_files = sorted((data / "bandai").glob("*/*.bvh"))[::args.bandai_step]
+    if bandai_files:  # 6 channels on every joint, 30 fps: the other BVH shape real files have
+        rates = time_bvh_readers(bandai_files, f"Bandai (every {args.bandai_step}th take)", args.repeats)
+        summary["bandai_mb_s"] = {k: round(v, 2) for k, v in rates.items()}
+        summary["bandai_ratio_vs"] = {k: round(rates["mocapviz"] / v, 2) for k, v in rates.items()
+                                      if not k.startswith("mocapviz")}
 
     # Peers cannot open the clips whose first line has a Latin-1 byte (they decode UTF-8):
     # every reader gets the same UTF-8-clean clips.

@@ -1,4 +1,4 @@
-"""One catalog of the real clips (HDM05, CMU, H3.6M) and a loader into Motion.
+"""One catalog of the real clips (HDM05, CMU, H3.6M, Bandai) and a loader into Motion.
 
 Every row: source, subject, clip, motion_type (the source's own label), path, skeleton_path
 (the ASF for HDM05), fps, frames (usable frames: CMU's inserted T-pose frame 0 excluded),
@@ -14,7 +14,14 @@ duration_s (``(frames - 1) / fps``, the same convention as ``Motion.duration``),
   CMU jump/kick excerpts, usable for skeletons and poses, too short for training windows. (Whole
   HDM05 clips can be short, e.g. a single hop of 0.46 s, but each is a complete action.)
 - ``split``: the source's own train/test split where it defines one (HDM05: actors mm and tr
-  are test; H3.6M: S5 is test), empty for CMU.
+  are test; H3.6M: S5 is test), empty for CMU and Bandai.
+- ``style``: Bandai's style label (``normal``, ``elderly``, ...), empty for the other sources.
+
+Bandai rows: ``subject`` is ``bandai1``/``bandai2`` (its dataset-1 and dataset-2: the actor of a
+take is not recorded and all share one proportion-aligned skeleton), ``motion_type`` is the
+coarse type of :data:`BANDAI_MOTION_TYPES` and ``description`` the upstream content label.
+Bandai is opt-in (``build_catalog(sources=SOURCES)``, or the CLI's ``catalog``): the default
+:data:`DEFAULT_SOURCES` keep the datasets built from the catalog as they were.
 
 ``build_catalog`` caches its result under ``cache/`` at the repository root, keyed by a hash of
 the data files (relative path, size, mtime), :data:`SCHEMA_VERSION` and this module's source.
@@ -31,16 +38,27 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from data_prep.sources import REPO_ROOT, SOURCES, find_data_dir
+from data_prep.sources import REPO_ROOT, SOURCE_LENGTH_UNITS, SOURCES, find_data_dir
 from mocapviz.atomic import atomic_path
 
 if TYPE_CHECKING:
     from mocapviz.motion import Motion
 
 COLUMNS = ["source", "subject", "clip", "motion_type", "path", "skeleton_path", "fps", "frames",
-           "duration_s", "first_frame", "description", "segment", "trainable", "split"]
+           "duration_s", "first_frame", "description", "segment", "trainable", "split", "style"]
 # Bump when the columns or the way a row is computed change: old cache files are then ignored.
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
+DEFAULT_SOURCES = ("hdm05", "cmu", "h36m")
+# Bandai's content labels -> motion types (walks and turns kept apart; gestures grouped).
+BANDAI_MOTION_TYPES = {
+    "walk": "walk", "walk-turn-left": "walk-turn-left", "walk-turn-right": "walk-turn-right",
+    "run": "run", "dash": "dash", "walk-back": "walk-back",
+    "walk-left": "side-step-left", "walk-right": "side-step-right",
+    **{f"{a}-{s}": "hand-action" for a in ("wave", "raise-up") for s in ("both-hands", "left-hand", "right-hand")},
+    **dict.fromkeys(("bow", "bye", "byebye", "call", "guide", "respond"), "gesture"),
+    **dict.fromkeys(("kick", "punch", "slash"), "fighting"),
+    "dance-short": "dance",
+}
 # Shortest excerpt (segment = window) that can give training windows; whole clips always can.
 MIN_WINDOW_SECONDS = 1.0
 CACHE_DIR = REPO_ROOT / "cache"
@@ -72,6 +90,7 @@ def _bvh_frames(path: Path) -> int:
 
 
 def _row(**kw) -> dict:
+    kw.setdefault("style", "")
     kw["duration_s"] = (kw["frames"] - 1) / kw["fps"]
     kw["trainable"] = bool(kw["segment"] != "window" or kw["duration_s"] >= MIN_WINDOW_SECONDS)
     return kw
@@ -121,32 +140,50 @@ def h36m_rows(root: Path) -> list[dict]:
     return rows
 
 
-ROW_BUILDERS = {"hdm05": hdm05_rows, "cmu": cmu_rows, "h36m": h36m_rows}
+def bandai_rows(root: Path) -> list[dict]:
+    """Rows from ``bandai/index.tsv`` (content, style, take); frames from each file's header."""
+    rows = []
+    with open(root / "index.tsv", newline="", encoding="utf-8") as f:
+        for rec in csv.DictReader(f, delimiter="\t"):
+            path = root / rec["file"]
+            if not path.is_file():
+                warnings.warn(f"{path} is listed in {root / 'index.tsv'} but missing; skipped")
+                continue
+            rows.append(_row(source="bandai", subject="bandai" + rec["dataset"].rsplit("-", 1)[1],
+                             clip=path.stem, motion_type=BANDAI_MOTION_TYPES.get(rec["content"], rec["content"]),
+                             path=str(path), skeleton_path="", fps=float(rec["fps"]), frames=_bvh_frames(path),
+                             first_frame=0, description=rec["content"], segment="full", split="",
+                             style=rec["style"]))
+    return rows
 
 
-def data_files(root: Path) -> list[Path]:
-    """Every file under the source folders of ``root``, sorted (what the cache key covers)."""
+ROW_BUILDERS = {"hdm05": hdm05_rows, "cmu": cmu_rows, "h36m": h36m_rows, "bandai": bandai_rows}
+
+
+def data_files(root: Path, sources=SOURCES) -> list[Path]:
+    """Every file under the ``sources`` folders of ``root``, sorted (what the cache key covers)."""
     out = []
-    for name in SOURCES:
+    for name in sources:
         if (root / name).is_dir():
             out += [p for p in (root / name).rglob("*") if p.is_file()]
     return sorted(out)
 
 
-def cache_key(root: Path) -> str:
-    """Hash of the schema version, this module's code, the data folder and every data file's
-    relative path, size and mtime."""
-    h = hashlib.sha256(f"schema={SCHEMA_VERSION}\nroot={Path(root).resolve()}\n".encode())
+def cache_key(root: Path, sources=DEFAULT_SOURCES) -> str:
+    """Hash of the schema version, the sources, this module's code, the data folder and every
+    data file's relative path, size and mtime."""
+    h = hashlib.sha256(f"schema={SCHEMA_VERSION}\nroot={Path(root).resolve()}\n"
+                       f"sources={','.join(sources)}\n".encode())
     h.update(Path(__file__).read_bytes())
-    for p in data_files(root):
+    for p in data_files(root, sources):
         st = p.stat()
         h.update(f"{p.relative_to(root).as_posix()}\t{st.st_size}\t{st.st_mtime_ns}\n".encode())
     return h.hexdigest()[:20]
 
 
-def _scan(root: Path) -> pd.DataFrame:
+def _scan(root: Path, sources=DEFAULT_SOURCES) -> pd.DataFrame:
     rows = []
-    for name in SOURCES:
+    for name in sources:
         if (root / name).is_dir():
             rows += ROW_BUILDERS[name](root / name)
     df = pd.DataFrame(rows, columns=COLUMNS)
@@ -176,20 +213,24 @@ def _safe_mtime(p: Path) -> float:
 
 
 def build_catalog(data_dir: str | Path | None = None, cache: bool = True,
-                  cache_dir: str | Path | None = None) -> pd.DataFrame:
-    """Catalog of every clip found under the data folder (see :func:`find_data_dir`).
+                  cache_dir: str | Path | None = None, sources=DEFAULT_SOURCES) -> pd.DataFrame:
+    """Catalog of every clip of ``sources`` found under the data folder (see
+    :func:`find_data_dir`); pass ``sources=SOURCES`` to include Bandai.
 
     With ``cache`` (default) the table is read from ``cache_dir`` (default ``<repo>/cache``)
     when the data files are unchanged, and written there (atomically) otherwise.
     ``df.attrs['cache']`` says what happened: ``'hit'``, ``'miss'`` or ``'off'``.
     """
     root = find_data_dir(data_dir)
+    unknown = set(sources) - set(SOURCES)
+    if unknown:
+        raise ValueError(f"unknown sources {sorted(unknown)}; choose from {SOURCES}")
     if not cache:
-        df = _scan(root)
+        df = _scan(root, sources)
         df.attrs.update(cache="off", data_dir=str(root))
         return df
     cache_dir = Path(cache_dir) if cache_dir is not None else CACHE_DIR
-    path = cache_dir / f"catalog-{cache_key(root)}.pkl"
+    path = cache_dir / f"catalog-{cache_key(root, sources)}.pkl"
     if path.is_file():
         try:
             df = pd.read_pickle(path)
@@ -198,7 +239,7 @@ def build_catalog(data_dir: str | Path | None = None, cache: bool = True,
                 return df
         except Exception as e:  # unreadable or truncated: rebuild below
             warnings.warn(f"ignoring unreadable catalog cache {path}: {e}")
-    df = _scan(root)
+    df = _scan(root, sources)
     try:
         _write_atomic_pickle(df, path)
         _prune(cache_dir, keep=path)
@@ -253,14 +294,16 @@ def load_motion(row) -> Motion:
     """Load a catalog row as a Motion: metres, Y up, usable frames only.
 
     HDM05 and CMU skeletons come out with the same 31 joint names (the CMU BVH names), so
-    that the topology maps of :mod:`mocapviz.skeleton` apply to both.
+    that the topology maps of :mod:`mocapviz.skeleton` apply to both. Bandai's reference root
+    is folded into ``Hips`` and its joints renamed to the CCNet names they map to
+    (:func:`mocapviz.skeleton.map_to_ccnet25`; ``meta['joint_map']``); its joints' position
+    channels, which repeat their OFFSETs to < 1e-6 m, are dropped (:meth:`Motion.rigid`).
     """
     # imported here so that scanning the catalog (python -m data_prep catalog) needs no torch
-    from mocapviz.io._text import LENGTH_UNITS
     from mocapviz.io.asfamc import read_amc, read_asf
     from mocapviz.io.bvh import read_bvh
     from mocapviz.io.h36m import read_h36m
-    from mocapviz.skeleton import ASF_TO_VICON_BVH
+    from mocapviz.skeleton import ASF_TO_VICON_BVH, map_to_ccnet25
 
     row = dict(row)
     if row["source"] == "hdm05":
@@ -270,13 +313,19 @@ def load_motion(row) -> Motion:
         motion = read_amc(row["path"], asf, fps=row["fps"])
         motion.skeleton = motion.skeleton.renamed(ASF_TO_VICON_BVH)
     elif row["source"] == "cmu":
-        motion = read_bvh(row["path"], length_unit=LENGTH_UNITS["cmu"])
+        motion = read_bvh(row["path"], length_unit=SOURCE_LENGTH_UNITS["cmu"])
     elif row["source"] == "h36m":
         motion = read_h36m(row["path"])
+    elif row["source"] == "bandai":
+        # fold_root, not drop_static_root: 4 takes move their reference root (folding is exact)
+        motion = read_bvh(row["path"], length_unit=SOURCE_LENGTH_UNITS["bandai"]).fold_root().rigid(1e-6)
+        joint_map = map_to_ccnet25(motion.skeleton.names)
+        motion.skeleton = motion.skeleton.renamed(joint_map)
+        motion.meta["joint_map"] = joint_map
     else:
         raise ValueError(f"unknown source {row['source']!r}")
     motion = motion[int(row["first_frame"]):]
     motion.meta.update(source_dataset=row["source"], subject=row["subject"], clip=row["clip"],
-                       motion_type=row["motion_type"])
+                       motion_type=row["motion_type"], style=row.get("style", ""))
     motion.name = row["clip"]
     return motion

@@ -13,7 +13,7 @@ def _catalog(args) -> int:
     import pandas as pd
 
     from data_prep.catalog import CACHE_DIR, build_catalog, summary_table
-    cat = build_catalog(args.data_dir, cache=not args.no_cache)
+    cat = build_catalog(args.data_dir, cache=not args.no_cache, sources=SOURCES)
     table = summary_table(cat)
     with pd.option_context("display.width", 200, "display.max_columns", 60, "display.max_rows", 200):
         for source, sub in table.groupby(level="source", sort=False):

@@ -1,6 +1,6 @@
 """Fetch the motion data for users who have no copy of the shared data folder.
 
-``python -m data_prep download [--source cmu|hdm05|h36m] [--dest data/raw] [--mirror URL]
+``python -m data_prep download [--source cmu|hdm05|h36m|bandai] [--dest data/raw] [--mirror URL]
 [--accept-license]``
 
 What the manifest (``data_prep/manifest.json``) pins, and why
@@ -22,6 +22,12 @@ byte-identical to something downloadable from a public URL:
   says ``segment = full``, and the catalog reads frame counts from the files. Reproducing the
   excerpts from the originals is out of scope: the window bounds in ``index.tsv`` are only
   known to +-3 frames.
+- **Bandai** (CC BY-NC 4.0): our copies are byte-identical to the upstream files, so the
+  manifest keeps ``bandai/index.tsv`` (``bandai_index``) with each file's path in the public
+  repository and its **git blob SHA-1**; files are fetched from raw.githubusercontent.com at
+  the pinned commit (``sources.bandai.commit``) and verified with that hash (what ``git
+  hash-object`` prints, and what GitHub's tree lists), and ``bandai/index.tsv`` is written
+  beside them. Non-commercial use only: models trained on them inherit that in practice.
 - **HDM05** (CC BY-SA 3.0) and **H3.6M** (academic use only): the exact public per-file
   source of these copies is not recorded, so the manifest has no upstream URL for them; the
   command says where to obtain them (``homepage`` in the manifest) and where to put them.
@@ -104,13 +110,20 @@ def _atomic_write_bytes(path: Path, data: bytes) -> None:
         tmp.write_bytes(data)
 
 
-def download_file(url: str, dest: str | Path, sha256: str | None = None, *, progress: bool = True,
-                  timeout: float = 60.0) -> str:
+def git_blob_sha1(path: str | Path) -> str:
+    """The file's git blob hash (``git hash-object``): SHA-1 of ``blob <size>\\0`` + content."""
+    data = Path(path).read_bytes()
+    return hashlib.sha1(b"blob %d\0" % len(data) + data).hexdigest()
+
+
+def download_file(url: str, dest: str | Path, sha256: str | None = None, *, git_sha1: str | None = None,
+                  progress: bool = True, timeout: float = 60.0) -> str:
     """Download ``url`` to ``dest`` through ``dest.part``; return the file's sha256.
 
     A ``.part`` file left by an interrupted download is resumed with an HTTP Range request
-    (restarted if the server ignores Range). With ``sha256`` given, a mismatch deletes the
-    ``.part`` file and raises :class:`ChecksumError`; ``dest`` is only created on success.
+    (restarted if the server ignores Range). With ``sha256`` or ``git_sha1`` (git blob hash)
+    given, a mismatch deletes the ``.part`` file and raises :class:`ChecksumError`; ``dest``
+    is only created on success.
     """
     dest = Path(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
@@ -154,10 +167,13 @@ def download_file(url: str, dest: str | Path, sha256: str | None = None, *, prog
         digest = h.hexdigest()
     else:
         digest = sha256_file(part)
-    if sha256 and digest != sha256:
-        part.unlink(missing_ok=True)
-        raise ChecksumError(f"checksum mismatch for {dest} (from {url}): expected sha256 {sha256}, "
-                            f"got {digest}; the download was discarded")
+    for name, expected, got in (("sha256", sha256, lambda: digest), ("git blob SHA-1", git_sha1,
+                                                                     lambda: git_blob_sha1(part))):
+        if expected and got() != expected:
+            actual = got()
+            part.unlink(missing_ok=True)
+            raise ChecksumError(f"checksum mismatch for {dest} (from {url}): expected {name} {expected}, "
+                                f"got {actual}; the download was discarded")
     os.replace(part, dest)
     return digest
 
@@ -187,7 +203,7 @@ def download(sources=None, dest: str | Path = DEFAULT_DEST, *, mirror: str | Non
              accept_license: bool = False, force: bool = False, progress: bool = True,
              manifest: dict | None = None) -> dict:
     """Download ``sources`` (default: every source whose license needs no acceptance, plus
-    H3.6M when ``accept_license``) into ``dest``. Returns {source: [paths written or kept]}.
+    H3.6M when ``accept_license``; Bandai only when named) into ``dest``. Returns {source: [paths written or kept]}.
 
     Files already present with the expected checksum are kept. Raises
     :class:`LicenseNotAcceptedError` for H3.6M without ``accept_license`` and
@@ -199,7 +215,8 @@ def download(sources=None, dest: str | Path = DEFAULT_DEST, *, mirror: str | Non
     info = manifest["sources"]
     explicit = sources is not None
     if sources is None:
-        sources = [s for s in SOURCES if accept_license or not info[s]["requires_license_acceptance"]]
+        sources = [s for s in SOURCES if not info[s].get("opt_in")
+                   and (accept_license or not info[s]["requires_license_acceptance"])]
     sources = [sources] if isinstance(sources, str) else list(sources)
     for s in sources:
         if s not in info:
@@ -212,6 +229,9 @@ def download(sources=None, dest: str | Path = DEFAULT_DEST, *, mirror: str | Non
     lock = _read_lock(root)
     done: dict[str, list[Path]] = {}
     for s in sources:
+        if s == "bandai":
+            done[s] = _download_bandai(manifest, root, mirror, force, progress)
+            continue
         entries = [e for e in manifest["entries"] if e.source == s]
         if mirror:
             jobs = [(mirror.rstrip("/") + "/" + e.dest, e, e.sha256) for e in entries]
@@ -250,6 +270,29 @@ def download(sources=None, dest: str | Path = DEFAULT_DEST, *, mirror: str | Non
     return done
 
 
+def _download_bandai(manifest: dict, root: Path, mirror: str | None, force: bool, progress: bool) -> list[Path]:
+    """Every Bandai take of ``bandai_index`` from the pinned upstream commit (or ``mirror``),
+    verified by its git blob SHA-1, and ``bandai/index.tsv``."""
+    info, index = manifest["sources"]["bandai"], manifest["bandai_index"]
+    cols = index["columns"]
+    written = []
+    for line in tqdm(index["rows"], desc="download bandai", unit="file", disable=not progress):
+        rec = dict(zip(cols, line.split("\t")))
+        target = root / "bandai" / rec["file"]
+        url = (f"{mirror.rstrip('/')}/bandai/{rec['file']}" if mirror else
+               f"{info['raw_base']}/{info['repository']}/{info['commit']}/{rec['source_path']}")
+        if target.is_file() and not force:
+            if git_blob_sha1(target) != rec["git_blob_sha1"]:
+                raise ChecksumError(f"{target} exists but its git blob SHA-1 differs from the expected "
+                                    f"{rec['git_blob_sha1']}; delete it or pass --force")
+        else:
+            download_file(url, target, git_sha1=rec["git_blob_sha1"], progress=progress)
+        written.append(target)
+    text = "".join(line + "\n" for line in ["\t".join(cols)] + index["rows"])
+    _atomic_write_bytes(root / "bandai" / "index.tsv", text.encode())
+    return written + [root / "bandai" / "index.tsv"]
+
+
 # --- building the manifest from the reference data folder (maintainers) -------------------
 
 SOURCE_INFO = {
@@ -278,6 +321,18 @@ SOURCE_INFO = {
         homepage="http://vision.imar.ro/human36m/ (exp-map text form of Martinez et al. 2017)",
         layout="S<k>/<action>_<subaction>.txt",
         requires_license_acceptance=True),
+    "bandai": dict(
+        license="Bandai Namco Research Motion Dataset: CC BY-NC 4.0 (non-commercial use, with "
+                "attribution); models trained on it inherit that restriction in practice.",
+        cite="M. Kobayashi, C.-C. Liao, K. Inoue, S. Yojima, M. Takahashi. Motion Capture Dataset for "
+             "Practical Use of AI-based Motion Editing and Stylization. arXiv:2306.08861, 2023.",
+        homepage="https://github.com/BandaiNamcoResearchInc/Bandai-Namco-Research-Motiondataset",
+        layout="dataset-1/<file>.bvh, dataset-2/<file>.bvh and index.tsv",
+        raw_base="https://raw.githubusercontent.com",
+        repository="BandaiNamcoResearchInc/Bandai-Namco-Research-Motiondataset",
+        commit="74ead3ba1ae4696404e6086233779f60de8bf9ef",
+        requires_license_acceptance=False,
+        opt_in=True),  # 1,256 files, 259 MB: fetched when asked for (--source bandai)
 }
 
 
@@ -297,7 +352,7 @@ def build_manifest(data_dir: str | Path) -> dict:
                  for rec in csv.DictReader(f, delimiter="\t")]
     urls = {f"cmu/{r['clip'].split('_')[0]}/{r['clip']}.bvh": _cmu_url(r["source_path"]) for r in index}
     files = []
-    for s in SOURCES:
+    for s in (s for s in SOURCES if s != "bandai"):  # Bandai's files are pinned by bandai_index
         for p in sorted((root / s).rglob("*")):
             if p.is_file():
                 rel = p.relative_to(root).as_posix()
@@ -307,7 +362,13 @@ def build_manifest(data_dir: str | Path) -> dict:
             "about": "sha256 = the file as in the project's reference data folder; url = public "
                      "upstream file if known; url_sha256 = checksum of the upstream file if known "
                      "(empty: verified on first use). See data_prep/download.py.",
-            "sources": SOURCE_INFO, "cmu_index": index, "files": files}
+            "sources": SOURCE_INFO, "cmu_index": index, "bandai_index": _bandai_index(root), "files": files}
+
+
+def _bandai_index(root: Path) -> dict:
+    """``bandai/index.tsv`` as its column names and its lines (one string per file: compact)."""
+    header, *lines = (root / "bandai" / "index.tsv").read_text(encoding="utf-8").splitlines()
+    return {"columns": header.split("\t"), "rows": lines}
 
 
 def write_manifest(data_dir: str | Path, path: str | Path = MANIFEST_PATH) -> Path:

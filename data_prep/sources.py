@@ -10,7 +10,12 @@ import os
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
-SOURCES = ("hdm05", "cmu", "h36m")
+SOURCES = ("hdm05", "cmu", "h36m", "bandai")
+# Length unit of each source's files, in metres per file unit (what load_motion passes on).
+# HDM05's ASF files state theirs (``:units length 0.45``: one unit is 1/0.45 inch); CMU's
+# BVH conversion keeps that ASF unit; H3.6M bone lengths are millimetres; Bandai is cm.
+SOURCE_LENGTH_UNITS = {"hdm05": "stated by each ASF file (1/0.45 inch)", "cmu": 0.0254 / 0.45,
+                       "h36m": 0.001, "bandai": 0.01}
 
 
 class DataNotFoundError(FileNotFoundError):

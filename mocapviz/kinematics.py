@@ -6,24 +6,33 @@ import numpy as np
 import torch
 
 
-def forward_kinematics(local_rotations, root_positions, offsets, parents, return_rotations=False):
+def forward_kinematics(local_rotations, root_positions, offsets, parents, return_rotations=False,
+                       translations=None):
     """Global joint positions from local rotations.
 
     local_rotations: (..., J, 3, 3); root_positions: (..., 3); offsets: (J, 3); parents: (J,)
-    with parents[j] < j. Works on numpy arrays or torch tensors (differentiable) alike.
-    Returns positions (..., J, 3) and, if asked, global rotations (..., J, 3, 3).
+    with parents[j] < j. ``translations`` (optional) maps a joint index to its per-frame
+    local position (..., 3), replacing ``offsets[j]`` (BVH position channels below the root);
+    joints not in it use their rest offset. Works on numpy arrays or torch tensors
+    (differentiable) alike. Returns positions (..., J, 3) and, if asked, global rotations
+    (..., J, 3, 3).
     """
     xp = torch if isinstance(local_rotations, torch.Tensor) else np
     if xp is torch:
-        offsets = torch.as_tensor(offsets, dtype=local_rotations.dtype, device=local_rotations.device)
+        def as_array(x):
+            return torch.as_tensor(x, dtype=local_rotations.dtype, device=local_rotations.device)
     else:
-        offsets = np.asarray(offsets, dtype=local_rotations.dtype)
+        def as_array(x):
+            return np.asarray(x, dtype=local_rotations.dtype)
+    offsets = as_array(offsets)
+    moving = {int(j): as_array(t)[..., :, None] for j, t in (translations or {}).items()}
     n_joints = local_rotations.shape[-3]
     glob_rot = [local_rotations[..., 0, :, :]]
     glob_pos = [root_positions + offsets[0]]
     for j in range(1, n_joints):
         p = int(parents[j])
-        glob_pos.append(glob_pos[p] + (glob_rot[p] @ offsets[j][:, None])[..., 0])
+        local = moving[j] if j in moving else offsets[j][:, None]
+        glob_pos.append(glob_pos[p] + (glob_rot[p] @ local)[..., 0])
         glob_rot.append(glob_rot[p] @ local_rotations[..., j, :, :])
     positions = xp.stack(glob_pos, -2) if xp is torch else np.stack(glob_pos, axis=-2)
     if not return_rotations:

@@ -7,6 +7,7 @@ import re
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -197,3 +198,47 @@ def test_cache_off_writes_nothing(tmp_path):
     data = _small_copy(tmp_path / "data", amcs=1)
     df = build_catalog(data, cache=False, cache_dir=tmp_path / "cache")
     assert df.attrs["cache"] == "off" and not (tmp_path / "cache").exists()
+
+
+@pytest.fixture(scope="module")
+def with_bandai():
+    if not (DATA / "bandai").is_dir():
+        pytest.skip("no bandai folder in the data folder")
+    return build_catalog(DATA, cache=False, sources=cat_mod.SOURCES)
+
+
+def test_bandai_is_opt_in_and_matches_its_readme_and_index(catalog, with_bandai):
+    assert "bandai" not in set(catalog.source)  # the default sources keep the datasets unchanged
+    b = with_bandai[with_bandai.source == "bandai"]
+    assert len(b) == 1256 and b["clip"].is_unique
+    assert b.groupby("subject").size().to_dict() == {"bandai1": 174, "bandai2": 1082}
+    assert (b.fps == 30).all() and (b.first_frame == 0).all() and (b.split == "").all()
+    assert b.duration_s.sum() / 60 == pytest.approx(110, abs=1)  # "about 110 minutes"
+    minutes = (b.frames / b.fps).groupby(b.motion_type).sum() / 60  # the README counts frames / fps
+    # README: walk 28.2, turns 20.1 / 20.5, run 18.7, walk-back 2.1, side steps 2.8, dash 0.7.
+    # (It also says hand actions 9.9; the 120 files hold 17,558 frames = 9.75 min, as index.tsv says.)
+    readme = {"walk": 28.2, "walk-turn-left": 20.1, "walk-turn-right": 20.5, "run": 18.7, "walk-back": 2.1,
+              "dash": 0.7}
+    assert b[b.motion_type == "hand-action"].frames.sum() == 17558
+    for t, m in readme.items():
+        assert minutes[t] == pytest.approx(m, abs=0.1), t
+    assert minutes["side-step-left"] + minutes["side-step-right"] == pytest.approx(2.8, abs=0.1)
+    with open(DATA / "bandai" / "index.tsv", newline="") as f:
+        index = {Path(r["file"]).stem: r for r in csv.DictReader(f, delimiter="\t")}
+    for r in b.itertuples():
+        rec = index[r.clip]
+        assert (r.description, r.style, r.frames) == (rec["content"], rec["style"], int(rec["frames"]))
+    assert set(b[b.subject == "bandai2"]["style"]) == {
+        "active", "elderly", "exhausted", "feminine", "masculine", "normal", "youthful"}
+    assert b.set_index("clip").motion_type["dataset-1_walk-left_happy_001"] == "side-step-left"
+
+
+def test_bandai_load_motion_folds_the_root_and_maps_the_names(with_bandai):
+    from data_prep.catalog import load_motion
+    row = with_bandai[with_bandai["clip"] == "dataset-2_walk_normal_001"].iloc[0]
+    m = load_motion(row)
+    assert m.skeleton.names[:4] == ("Hips", "Spine", "Spine1", "Neck") and "LeftUpLeg" in m.skeleton.names
+    assert m.meta["joint_map"]["UpperLeg_L"] == "LeftUpLeg" and m.meta["style"] == "normal"
+    assert m.translations == {} and m.n_frames == row.frames
+    travel = np.linalg.norm(np.diff(m.root_positions[:, [0, 2]], axis=0), axis=1).sum()
+    assert travel > 2.0  # the walk goes somewhere (it stayed at 0.00 m before folding)

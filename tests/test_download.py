@@ -218,3 +218,79 @@ def test_missing_file_on_server_names_it(server, tmp_path):
     with pytest.raises(DownloadError, match=r"07_01\.bvh: HTTP 404"):
         download_file(f"{base}/{CLIP}", tmp_path / "07_01.bvh", BY_DEST[CLIP].sha256, progress=False)
     assert list(tmp_path.glob("07_01*")) == []
+
+
+# ---- Bandai: upstream files at a pinned commit, verified by their git blob SHA-1 ----------
+
+needs_bandai = pytest.mark.skipif(not (DATA / "bandai").is_dir(), reason="no bandai folder in the data folder")
+
+
+def _bandai_manifest(base: str, n: int = 3) -> dict:
+    """The real manifest with its first ``n`` Bandai takes and raw_base pointing at ``base``."""
+    info = {**MANIFEST["sources"]["bandai"], "raw_base": base}
+    index = {**MANIFEST["bandai_index"], "rows": MANIFEST["bandai_index"]["rows"][:n]}
+    return {**MANIFEST, "sources": {**MANIFEST["sources"], "bandai": info}, "bandai_index": index}
+
+
+def _serve_upstream(root: Path, man: dict) -> list[dict]:
+    """Lay the real files out as raw.githubusercontent.com does: <repo>/<commit>/<source_path>."""
+    info, cols = man["sources"]["bandai"], man["bandai_index"]["columns"]
+    recs = [dict(zip(cols, line.split("\t"))) for line in man["bandai_index"]["rows"]]
+    for r in recs:
+        _serve(root, f"{info['repository']}/{info['commit']}/{r['source_path']}", src=f"bandai/{r['file']}")
+    return recs
+
+
+@needs_bandai
+def test_manifest_pins_bandai_by_index_and_git_blob_hash():
+    from data_prep.download import git_blob_sha1
+    info, index = MANIFEST["sources"]["bandai"], MANIFEST["bandai_index"]
+    assert info["commit"] == "74ead3ba1ae4696404e6086233779f60de8bf9ef" and info["opt_in"]
+    text = "".join(line + "\n" for line in ["\t".join(index["columns"])] + index["rows"])
+    assert text == (DATA / "bandai" / "index.tsv").read_text()  # the index, byte for byte
+    for line in index["rows"][::300]:
+        rec = dict(zip(index["columns"], line.split("\t")))
+        assert git_blob_sha1(DATA / "bandai" / rec["file"]) == rec["git_blob_sha1"]
+    assert not any(e.source == "bandai" for e in MANIFEST["entries"])
+
+
+@needs_bandai
+def test_bandai_download_from_the_pinned_commit(server, tmp_path, capsys):
+    base, root, log, _ = server
+    man = _bandai_manifest(base)
+    recs = _serve_upstream(root, man)
+    out = tmp_path / "raw"
+    done = download("bandai", out, manifest=man, progress=False)
+    assert len(done["bandai"]) == 4 and len(log) == 3
+    info = man["sources"]["bandai"]
+    assert sorted(p for p, _ in log) == sorted(f"/{info['repository']}/{info['commit']}/{r['source_path']}"
+                                               for r in recs)
+    for r in recs:
+        assert (out / "bandai" / r["file"]).read_bytes() == (DATA / "bandai" / r["file"]).read_bytes()
+    ours = build_catalog(out, cache=False, sources=("bandai",))
+    ref = build_catalog(DATA, cache=False, sources=("bandai",))
+    cols = ["clip", "motion_type", "style", "frames"]
+    assert ours[cols].values.tolist() == ref[ref["clip"].isin(ours["clip"])][cols].values.tolist()
+    download("bandai", out, manifest=man, progress=False)  # present and verified: no requests
+    assert len(log) == 3
+    # upstream serves another file under a pinned path: the git blob hash refuses it
+    _serve(root, f"{info['repository']}/{info['commit']}/{recs[0]['source_path']}", src=f"bandai/{recs[1]['file']}")
+    with pytest.raises(ChecksumError, match=rf"{recs[0]['file'].split('/')[1]}.*git blob SHA-1"):
+        download("bandai", tmp_path / "other", manifest=man, progress=False)
+    assert not list((tmp_path / "other").rglob("*.bvh*"))
+
+
+@needs_bandai
+def test_bandai_is_not_in_the_default_download_and_the_cli_takes_it(server, tmp_path, capsys, monkeypatch):
+    import data_prep.download as dl
+    base, root, log, _ = server
+    (root / "cmu").symlink_to(DATA / "cmu", target_is_directory=True)
+    man = {**_bandai_manifest(base, n=2), "entries": [e for e in MANIFEST["entries"] if e.source == "cmu"]}
+    done = download(None, tmp_path / "raw", mirror=base, progress=False, manifest=man)
+    assert "bandai" not in done and len(done["cmu"]) == 18
+    for line in man["bandai_index"]["rows"]:  # a mirror holds a copy of the data folder
+        _serve(root, f"bandai/{line.split(chr(9))[0]}")
+    monkeypatch.setattr(dl, "load_manifest", lambda *a, **k: man)
+    assert cli.main(["download", "--source", "bandai", "--dest", str(tmp_path / "cli"), "--mirror", base]) == 0
+    assert "bandai: 3 files" in capsys.readouterr().out
+    assert (tmp_path / "cli" / "bandai" / "index.tsv").read_text().count("\n") == 3

@@ -44,8 +44,8 @@ def test_small_bvh_structure_units_and_fps():
     assert len(m.skeleton.end_sites) == 1 and m.skeleton.end_sites[0][0] == 2
     np.testing.assert_allclose(m.skeleton.end_sites[0][1], [0.05, 0, 0])
     np.testing.assert_allclose(m.root_positions, [[1, 2, 3], [1, 2, 3]])
-    # the non-root 6-channel joint is tolerated; its translation is kept for writing back
-    np.testing.assert_allclose(m.meta["joint_translations"][1], [[0, 0.1, 0], [0, 0.1, 0]])
+    # the non-root 6-channel joint only repeats its OFFSET: it stays rigid (no translations)
+    assert m.translations == {}
 
 
 def test_small_bvh_hand_computed_fk():

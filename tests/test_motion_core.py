@@ -189,3 +189,36 @@ def test_derived_motions_keep_per_frame_meta_consistent(data_dir):
     np.testing.assert_allclose(again.positions(), part.positions(), atol=1e-6)
     again = read_bvh("small.bvh", text=write_bvh(small), length_unit=motion.meta["length_unit"])
     np.testing.assert_allclose(again.positions(), small.positions(), atol=1e-6)
+
+
+def test_resampling_carries_joint_translations(data_dir):
+    bandai = sorted((data_dir / "bandai").glob("*/*.bvh")) if (data_dir / "bandai").is_dir() else []
+    if not bandai:
+        pytest.skip("no bandai folder in the data folder")
+    m = read_bvh(bandai[0])[:20]  # 30 fps, every joint with per-frame translations
+    assert len(m.translations) >= 10  # most joints (those whose channels do not repeat OFFSET)
+    up = m.resample(60.0)
+    assert up.n_frames == 39 and set(up.translations) == set(m.translations)
+    for j, t in m.translations.items():
+        np.testing.assert_allclose(up.translations[j][::2], t, atol=1e-12)  # old frames kept
+        np.testing.assert_allclose(up.translations[j][1::2], (t[:-1] + t[1:]) / 2, atol=1e-12)  # lerp
+    np.testing.assert_allclose(up.positions()[::2], m.positions(), atol=1e-12)
+    part = m.sample([2.0, 7.0])
+    np.testing.assert_allclose(part.positions(), m.positions()[[2, 7]], atol=1e-12)
+    # mirroring, slicing and dropping joints keep them consistent with FK too
+    np.testing.assert_allclose(m.mirrored().positions()[:, m.skeleton.mirror_map()] * [-1, 1, 1],
+                               m.positions(), atol=1e-12)
+    np.testing.assert_allclose(m[5:9].positions(), m.positions()[5:9], atol=1e-12)
+
+
+def test_torch_fk_uses_joint_translations(data_dir):
+    bandai = sorted((data_dir / "bandai").glob("*/*.bvh")) if (data_dir / "bandai").is_dir() else []
+    if not bandai:
+        pytest.skip("no bandai folder in the data folder")
+    m = read_bvh(bandai[0])[:10]
+    sk = m.skeleton
+    pos = forward_kinematics(torch.tensor(m.rotations), torch.tensor(m.root_positions), sk.offsets, sk.parents,
+                             translations={j: torch.tensor(t) for j, t in m.translations.items()})
+    np.testing.assert_allclose(pos.numpy(), m.positions(), atol=1e-12)
+    rigid = forward_kinematics(m.rotations, m.root_positions, sk.offsets, sk.parents)
+    assert np.abs(rigid - m.positions()).max() > 0.5  # without them Bandai's body stays at the origin

@@ -22,7 +22,6 @@ from dtaidistance import dtw_ndim
 from mocapviz.ik import LEGS
 from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
-from mocapviz.rotations import slerp_matrices
 
 MIN_CYCLE_S = 0.3
 MAX_CYCLE_S = 3.0
@@ -152,15 +151,12 @@ def segment_cycles(motion: Motion, refs: References, threshold: float = 10.0, st
 
 
 def resample_uniform(motion: Motion, start: int, end: int, n: int = 100):
-    """Frames [start, end] resampled to ``n`` uniformly spaced times (slerp / linear).
+    """Frames [start, end] resampled to ``n`` uniformly spaced times (:meth:`Motion.sample`:
+    slerp / linear).
 
     Returns (rotations (n, J, 3, 3), root_positions (n, 3), times (n,) in seconds from
     the segment's start).
     """
     t = np.linspace(start, end, n)
-    i0 = np.clip(np.floor(t).astype(int), 0, motion.n_frames - 1)
-    i1 = np.minimum(i0 + 1, motion.n_frames - 1)
-    alpha = t - i0
-    rot = slerp_matrices(motion.rotations[i0], motion.rotations[i1], alpha[:, None])
-    root = motion.root_positions[i0] * (1 - alpha[:, None]) + motion.root_positions[i1] * alpha[:, None]
-    return rot, root, (t - start) / motion.fps
+    part = motion.sample(t)
+    return part.rotations, part.root_positions, (t - start) / motion.fps

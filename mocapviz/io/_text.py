@@ -41,25 +41,6 @@ def guess_length_unit(height_in_file_units: float) -> float:
                key=lambda u: abs(np.log(height_in_file_units * u / TYPICAL_HEIGHT_M)))
 
 
-def tokens_per_line(block: str) -> tuple[np.ndarray, np.ndarray]:
-    """Whitespace-separated token counts of every line of ``block`` and line start offsets.
-
-    Vectorised over the bytes so a whole motion section is checked in milliseconds; only
-    ASCII whitespace separates tokens, as in the formats we read.
-    """
-    b = np.frombuffer(block.encode("latin-1", errors="replace"), dtype=np.uint8)
-    if b.size == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    space = (b == 32) | (b == 9) | (b == 13) | (b == 10) | (b == 11) | (b == 12)
-    starts = ~space & np.concatenate([[True], space[:-1]])
-    newlines = np.flatnonzero(b == 10)
-    ends = np.concatenate([newlines, [b.size]]) if (newlines.size == 0 or newlines[-1] != b.size - 1) else newlines
-    csum = np.concatenate([[0], np.cumsum(starts)])
-    counts = np.diff(np.concatenate([[0], csum[ends]]))
-    line_starts = np.concatenate([[0], ends[:-1] + 1])
-    return counts, line_starts
-
-
 def fast_number_table(data: bytes) -> np.ndarray | None:
     """(rows, cols) float64 table of whitespace-separated numbers, or None if not clean.
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from mocapviz.errors import MocapFormatError
 from mocapviz.io._text import fast_number_table, read_text
+from mocapviz.io.axes import to_y_up
 from mocapviz.motion import Motion
 from mocapviz.rotations import euler_to_matrix
 from mocapviz.skeleton import Skeleton
@@ -128,6 +129,8 @@ def read_asf(path: str | Path, text: str | None = None) -> AsfSkeleton:
                     raise MocapFormatError(path, lineno, f"bad root order {' '.join(parts[1:])}")
             elif key == "axis":
                 root_axis = parts[1].upper() if len(parts) > 1 else "XYZ"
+                if sorted(root_axis) != ["X", "Y", "Z"]:
+                    raise MocapFormatError(path, lineno, f"bad root axis order {root_axis!r}")
             elif key == "orientation":
                 bones["root"].axis = _floats(parts[1:], path, lineno, 3)
         elif section == ":bonedata":
@@ -141,6 +144,8 @@ def read_asf(path: str | Path, text: str | None = None) -> AsfSkeleton:
                 bones[bone.name] = bone
                 bone = None
             elif key == "name":
+                if len(parts) != 2:
+                    raise MocapFormatError(path, lineno, "'name' needs one bone name")
                 bone.name = parts[1]
             elif key == "direction":
                 bone.direction = _floats(parts[1:], path, lineno, 3)
@@ -184,14 +189,6 @@ def _acclaim_euler(values_deg: np.ndarray, order: str) -> np.ndarray:
     padded = np.zeros((values_deg.shape[0], 3))
     padded[:, :len(order)] = values_deg
     return euler_to_matrix(padded[:, ::-1], full[::-1])
-
-
-def _dof_rotation(values_deg: np.ndarray, dofs: list[str]) -> np.ndarray:
-    """(F, 3, 3) rotation of a bone's rotational dofs, in their listed order."""
-    rot = [d for d in dofs if d in _ROT_DOFS]
-    if not rot:
-        return np.broadcast_to(np.eye(3), values_deg.shape[:1] + (3, 3))
-    return _acclaim_euler(values_deg[:, [dofs.index(d) for d in rot]], "".join(d[1].upper() for d in rot))
 
 
 def _parse_amc_frames(text: str, path, bone_dofs: dict[str, int]):
@@ -299,8 +296,9 @@ def _parse_amc_slow(lines, start, path, bone_dofs):
 
 
 def read_amc(amc_path: str | Path, asf: AsfSkeleton | str | Path, fps: float = 120.0,
-             text: str | None = None) -> Motion:
-    """Read an AMC motion for an ASF skeleton (an :class:`AsfSkeleton` or a path to one)."""
+             up: str = "y", text: str | None = None) -> Motion:
+    """Read an AMC motion for an ASF skeleton (an :class:`AsfSkeleton` or a path to one), in
+    metres; ``up`` is the file's up axis ("y", "z" or "auto"), converted to Y up."""
     if not isinstance(asf, AsfSkeleton):
         asf = read_asf(asf)
     text = read_text(amc_path) if text is None else text
@@ -342,4 +340,4 @@ def read_amc(amc_path: str | Path, asf: AsfSkeleton | str | Path, fps: float = 1
             out[:, idx] = euler_to_matrix(stacked[..., ::-1], order[::-1], axes=axes[idx])
         return out
     meta = {"source": str(amc_path), "format": "amc", "asf": asf.path, "length_unit": asf.length_unit}
-    return Motion(skeleton, rotations, root_positions, fps, name=Path(str(amc_path)).stem, meta=meta)
+    return to_y_up(Motion(skeleton, rotations, root_positions, fps, name=Path(str(amc_path)).stem, meta=meta), up)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import io
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,6 +19,7 @@ import numpy as np
 
 from mocapviz.errors import MocapFormatError
 from mocapviz.io._text import decode, guess_length_unit, parse_number_lines
+from mocapviz.io.axes import to_y_up
 from mocapviz.motion import Motion
 from mocapviz.rotations import euler_to_matrix, matrix_to_euler
 from mocapviz.skeleton import Skeleton
@@ -145,7 +147,11 @@ def _parse_hierarchy(lines: list[str], path) -> tuple[list[_Joint], list[tuple[i
 
 
 _MOTION_RE = re.compile(rb"^[ \t]*MOTION[ \t]*\r?$", re.MULTILINE | re.IGNORECASE)
-_FRAME_TIME_RE = re.compile(rb"^[ \t]*Frame Time[^\n]*(\n|$)", re.MULTILINE | re.IGNORECASE)
+_FRAME_TIME_RE = re.compile(rb"^[ \t]*Frame[ \t]*Time[^\n]*(\n|$)", re.MULTILINE | re.IGNORECASE)
+# A file may hold up to this many frame lines (or 1 %) more than its "Frames:" declares:
+# exporters miscount by one or two. Fewer lines than declared is what a truncated file
+# looks like, and more than a few extra a spliced one: both stay errors.
+FRAME_COUNT_SLACK = 5
 
 
 def _motion_header_end(text: bytes) -> int:
@@ -157,43 +163,73 @@ def _motion_header_end(text: bytes) -> int:
     return len(text) if ft is None else ft.end()
 
 
-def _header_value(line: str, key: str, lineno: int, path, cast):
-    head, _, value = line.partition(":")
-    if head.strip().lower() != key.lower():
-        raise MocapFormatError(path, lineno, f"expected '{key}:'")
+def _header_value(lines: list[str], i: int, key: str, path, cast) -> tuple[object, int]:
+    """Value of the ``key:`` line at or after line ``i`` (blank lines skipped) and the next index."""
+    while i < len(lines) and not lines[i].strip():
+        i += 1
+    if i >= len(lines):
+        raise MocapFormatError(path, len(lines), f"MOTION section without '{key}:'")
+    head, _, value = lines[i].partition(":")
+    if " ".join(head.split()).lower() != key.lower():
+        raise MocapFormatError(path, i + 1, f"expected '{key}:'")
     try:
         out = cast(value.strip())
     except ValueError:
-        raise MocapFormatError(path, lineno, f"bad {key} value {value.strip()!r}") from None
+        raise MocapFormatError(path, i + 1, f"bad {key} value {value.strip()!r}") from None
     if not out > 0:
-        raise MocapFormatError(path, lineno, f"{key} must be positive")
-    return out
+        raise MocapFormatError(path, i + 1, f"{key} must be positive")
+    return out, i + 1
 
 
-def read_bvh(path: str | Path, length_unit: float | None = None, text: str | None = None) -> Motion:
-    """Read a BVH file into a :class:`Motion` (metres, file's own axes).
+def _check_frame_count(values: np.ndarray, declared: int, path, last_line: int) -> None:
+    found = len(values)
+    if found == declared:
+        return
+    if not 0 < found - declared <= max(FRAME_COUNT_SLACK, declared // 100):
+        raise MocapFormatError(path, last_line, f"file declares {declared} frames but has {found}"
+                               + (" (truncated?)" if found < declared else ""))
+    warnings.warn(f"{path}: 'Frames: {declared}' but {found} frame lines; read the {found} frames "
+                  "that are there", stacklevel=3)
+
+
+def read_bvh(path: str | Path, length_unit: float | None = None, up: str = "y",
+             drop_static_root: bool = False, text: str | None = None) -> Motion:
+    """Read a BVH file into a :class:`Motion` (metres; Y up unless ``up="y"`` keeps a file's
+    other axes, see below).
 
     length_unit: metres per file unit; ``None`` guesses among m, cm, mm, inch and the CMU
-    ASF unit by the skeleton's height (the CMU BVH files come out in the CMU unit).
+    ASF unit by the height of the rest skeleton below its body root (so a reference root or
+    a placement OFFSET does not count; the CMU BVH files come out in the CMU unit).
+    up: the file's up axis, ``"y"`` (kept as is), ``"z"`` (Blender, 3ds Max: converted to
+    Y up) or ``"auto"`` (the axis of Y and Z along which the body is tallest); ``meta['up']``
+    records the file's axis and ``meta['axes']`` the conversion applied.
+    drop_static_root: fold a root whose channels are constant (a reference node at the
+    origin, Bandai's ``joint_Root``) into its only child, which becomes the root.
+
+    Position channels on any joint are applied (they replace that joint's OFFSET on each
+    frame); a joint whose position channels only repeat its OFFSET stays rigid.
     """
     raw = Path(path).read_bytes() if text is None else text.encode("utf-8", "surrogateescape")
     # Decode and split only the header (up to "Frame Time"); the frames stay bytes.
     head_end = _motion_header_end(raw)
     lines = decode(raw[:head_end]).split("\n")
     joints, ends, motion_line = _parse_hierarchy(lines, path)
-    if motion_line + 2 >= len(lines):
-        raise MocapFormatError(path, len(lines), "MOTION section without Frames and Frame Time")
-    n_frames = _header_value(lines[motion_line + 1], "Frames", motion_line + 2, path, int)
-    frame_time = _header_value(lines[motion_line + 2], "Frame Time", motion_line + 3, path, float)
-    block = "\n".join(lines[motion_line + 3:]).encode("utf-8", "surrogateescape") + raw[head_end:]
+    n_frames, i = _header_value(lines, motion_line + 1, "Frames", path, int)
+    frame_time, i = _header_value(lines, i, "Frame Time", path, float)
+    block = "\n".join(lines[i:]).encode("utf-8", "surrogateescape") + raw[head_end:]
     n_channels = sum(len(j.channels) for j in joints)
-    values = parse_number_lines(block, n_channels, motion_line + 4, path, n_lines=n_frames)
+    values = parse_number_lines(block, n_channels, i + 1, path)
+    _check_frame_count(values, n_frames, path, i + 1 + block.rstrip().count(b"\n"))
+    n_frames = len(values)
+    if n_frames == 0:
+        raise MocapFormatError(path, i + 1, "no frames")
 
     n = len(joints)
     names = tuple(j.name for j in joints)
     if len(set(names)) != n:
         dup = next(j for k, j in enumerate(joints) if j.name in names[:k])
         raise MocapFormatError(path, dup.line, f"duplicate joint name {dup.name!r}")
+    offsets = np.array([j.offset for j in joints])
     translations = {}
     col = 0
     by_order: dict[str, tuple[list[int], list[list[int]]]] = {}
@@ -207,10 +243,11 @@ def read_bvh(path: str | Path, length_unit: float | None = None, text: str | Non
             by_order[order][1].append(rot_cols)
         pos = [(i, c) for i, c in enumerate(chans) if c in _POS]
         if pos:
-            trans = np.tile(joint.offset, (n_frames, 1))
+            trans = np.tile(offsets[k], (n_frames, 1))
             for i, c in pos:
                 trans[:, _POS[c]] = values[:, col + i]
-            translations[k] = trans
+            if k == 0 or not (trans == offsets[k]).all():  # channels that repeat OFFSET: rigid
+                translations[k] = trans
         col += len(chans)
 
     def rotations() -> np.ndarray:  # evaluated by Motion on first use
@@ -222,23 +259,25 @@ def read_bvh(path: str | Path, length_unit: float | None = None, text: str | Non
             out[:, idx] = euler_to_matrix(values[:, cols], order)
         return out
 
-    offsets = np.array([j.offset for j in joints])
     parents = np.array([j.parent for j in joints])
     ends = tuple((j, tuple(o)) for j, o in ends)
     if length_unit is None:
-        length_unit = guess_length_unit(Skeleton(names, parents, offsets, ends).standing_height())
+        length_unit = guess_length_unit(Skeleton(names, parents, offsets, ends).height_from_bones())
     unit = length_unit
     root = translations.pop(0, np.tile(offsets[0], (n_frames, 1))) * unit
-    # Our skeleton is rigid: position channels on non-root joints are kept for writing back.
     rest_offsets = offsets * unit
     rest_offsets[0] = 0.0  # the root's place is root_positions
     skeleton = Skeleton(names, parents, rest_offsets,
                         tuple((j, tuple(v * unit for v in off)) for j, off in ends))
     meta = {"source": str(path), "format": "bvh", "length_unit": unit, "frame_time": frame_time,
             "channels": [j.channels for j in joints], "root_offset": offsets[0] * unit,
-            "channel_values": values,
-            "joint_translations": {k: v * unit for k, v in translations.items()}}
-    return Motion(skeleton, rotations, root, _frame_rate(frame_time), name=Path(str(path)).stem, meta=meta)
+            "channel_values": values}
+    motion = Motion(skeleton, rotations, root, _frame_rate(frame_time), name=Path(str(path)).stem, meta=meta,
+                    translations={k: v * unit for k, v in translations.items()})
+    if drop_static_root and len(skeleton.children(0)) == 1 and (values[:, :len(joints[0].channels)]
+                                                               == values[0, :len(joints[0].channels)]).all():
+        motion = motion.fold_root()
+    return to_y_up(motion, up)
 
 
 def _closest_euler(angles: np.ndarray, ref: np.ndarray) -> np.ndarray:
@@ -274,8 +313,12 @@ def write_bvh(motion: Motion, path: str | Path | None = None, length_unit: float
     channels = motion.meta.get("channels") or [
         (["xposition", "yposition", "zposition"] if j == 0 else []) + ["zrotation", "yrotation", "xrotation"]
         for j in range(sk.n_joints)]
+    channels = [list(c) for c in channels]
+    for j in motion.translations:  # a moving joint needs position channels to say so
+        if not any(c in _POS for c in channels[j]):
+            channels[j] = ["xposition", "yposition", "zposition"] + channels[j]
     root_offset = np.asarray(motion.meta.get("root_offset", np.zeros(3)))
-    joint_trans = motion.meta.get("joint_translations", {})
+    joint_trans = motion.translations
     label = {c: c[0].upper() + c[1:] for c in list(_ROT) + list(_POS)}
     out = io.StringIO()
     out.write("HIERARCHY\n")
