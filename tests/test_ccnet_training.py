@@ -11,7 +11,9 @@ import pytest
 import torch
 
 from mocapviz.training.checkpoint import load_checkpoint
-from mocapviz.training.trainer import TRAIN_CONFIGS, best_row, export_model, train
+from mocapviz.training.config import TRAIN_CONFIGS
+from mocapviz.training.runs import best_row, export_model
+from mocapviz.training.trainer import train
 
 TINY = replace(TRAIN_CONFIGS["quick"], steps=8, batch_size=4, window=30, eval_every=4, checkpoint_every=4,
                dilations=(1, 2, 4))
@@ -102,7 +104,7 @@ def test_checkpoint_carries_config_and_normaliser(ds, tmp_path):
 def test_torchrun_two_processes_gloo(ds, tmp_path):
     env = dict(os.environ, OMP_NUM_THREADS="1")
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2", "--master_port=29517",
-           "-m", "mocapviz.training.trainer", "--config", "quick", "--steps", "4", "--batch-size", "4",
+           "-m", "data_prep", "train", "--config", "quick", "--steps", "4", "--batch-size", "4",
            "--eval-every", "2", "--out", str(tmp_path)]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300,
                          cwd=Path(__file__).resolve().parent.parent)

@@ -34,6 +34,7 @@ import warnings
 import numpy as np
 
 from mocapviz.bodies.anny_model import BodyModel
+from mocapviz.heading import shortest_arc
 from mocapviz.kinematics import foot_contacts, forward_kinematics
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
@@ -74,20 +75,6 @@ def _point(sk: Skeleton, rest: np.ndarray, name: str, end: bool) -> np.ndarray:
     return rest[j] + offs[0]
 
 
-def _min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest rotation R with R a parallel to b."""
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    v = np.cross(a, b)
-    c = float(np.dot(a, b))
-    if c < -1 + 1e-9:  # opposite: any perpendicular axis
-        axis = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
-        axis /= np.linalg.norm(axis)
-        return 2 * np.outer(axis, axis) - np.eye(3)
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1 + c)
-
-
 def _kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Rotation R minimising sum |R a_i - b_i|^2 over unit directions."""
     a = a / np.linalg.norm(a, axis=1, keepdims=True)
@@ -115,13 +102,13 @@ def rest_alignment(source: Skeleton, target: Skeleton, static=STATIC_JOINTS) -> 
         if not keep:
             Q[j] = parent_q
         elif len(keep) == 1:
-            Q[j] = _min_rotation(a[keep[0]], b[keep[0]])
+            Q[j] = shortest_arc(a[keep[0]], b[keep[0]])
         else:
             a_k, b_k = np.array([a[i] for i in keep]), np.array([b[i] for i in keep])
             b_unit = b_k / np.linalg.norm(b_k, axis=1, keepdims=True)
             sv = np.linalg.svd(b_unit, compute_uv=False)
             if sv[1] < 0.1 * sv[0]:  # source directions (nearly) collinear: twist undefined
-                Q[j] = _min_rotation(a_k.mean(0), b_k.mean(0))
+                Q[j] = shortest_arc(a_k.mean(0), b_k.mean(0))
             else:
                 Q[j] = _kabsch(a_k, b_k)
     return Q
@@ -129,18 +116,6 @@ def rest_alignment(source: Skeleton, target: Skeleton, static=STATIC_JOINTS) -> 
 
 def hip_midpoint(skeleton: Skeleton, positions: np.ndarray) -> np.ndarray:
     return 0.5 * (positions[..., skeleton.index("LeftUpLeg"), :] + positions[..., skeleton.index("RightUpLeg"), :])
-
-
-def _batch_min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest rotations (N, 3, 3) taking directions a (N, 3) to b (N, 3) (not opposite)."""
-    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    v = np.cross(a, b)
-    c = np.einsum("ni,ni->n", a, b)
-    vx = np.zeros(a.shape[:-1] + (3, 3))
-    vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    vx[..., 1, 0], vx[..., 2, 0], vx[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
-    return np.eye(3) + vx + vx @ vx / np.maximum(1 + c, 1e-9)[..., None, None]
 
 
 LEGS = (("LeftUpLeg", "LeftLeg", "LeftFoot"), ("RightUpLeg", "RightLeg", "RightFoot"))
@@ -167,10 +142,10 @@ def two_bone_ik(glob: np.ndarray, pos: np.ndarray, skeleton: Skeleton, targets: 
         bend = np.where(bend_n > 1e-6, bend / np.maximum(bend_n, 1e-12), fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
         cos_a = np.clip((l1 ** 2 + d ** 2 - l2 ** 2) / (2 * l1 * d), -1.0, 1.0)
         K_new = H + l1 * (cos_a[:, None] * u + np.sqrt(1 - cos_a ** 2)[:, None] * bend)
-        r1 = _batch_min_rotation(K - H, K_new - H)
+        r1 = shortest_arc(K - H, K_new - H)
         glob[:, h] = r1 @ glob[:, h]
         shin_old = np.einsum("nij,nj->ni", r1, A - K)
-        r2 = _batch_min_rotation(shin_old, H + d[:, None] * u - K_new)
+        r2 = shortest_arc(shin_old, H + d[:, None] * u - K_new)
         glob[:, k] = r2 @ r1 @ glob[:, k]
     return glob
 
