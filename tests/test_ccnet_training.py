@@ -92,6 +92,24 @@ def test_resume_refuses_another_config(ds, tmp_path):
         train(ds, replace(TINY, lr=5e-4), tmp_path, progress=False)
 
 
+def test_zoo_trains_only_when_allowed_and_handed_data(ds, tmp_path):
+    from mocapviz import zoo
+    with pytest.raises(FileNotFoundError, match="no cached run"):
+        zoo.load("ccnet_quick", zoo_dir=None, cache_dir=tmp_path, dataset=ds, retrain_if_missing=False)
+    assert not any(tmp_path.iterdir())  # nothing was trained
+
+
+def test_command_line_trains_and_exports(tmp_path, capsys):
+    from data_prep.cli import main
+    out = tmp_path / "run"
+    assert main(["train", "--config", "quick", "--steps", "2", "--batch-size", "2", "--eval-every", "2",
+                 "--out", str(out), "--export", str(tmp_path / "m.safetensors")]) == 0
+    printed = capsys.readouterr().out
+    assert "step 2: val NLL" in printed and "best by validation: step 2" in printed
+    assert load_checkpoint(tmp_path / "m.safetensors")[2]["step"] == 2 and len(rows(out)) == 2
+    assert main(["train", "--config", "huge", "--out", str(out)]) == 2  # unknown config: an error, no traceback
+
+
 def test_checkpoint_carries_config_and_normaliser(ds, tmp_path):
     ckpt = train(ds, TINY, tmp_path, progress=False, stop_after=4)
     model, norm, meta = load_checkpoint(ckpt)

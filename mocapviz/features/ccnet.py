@@ -42,6 +42,7 @@ TRAJ_STEPS = (10, 20, 30, 40, 50, 60)  # frames ahead sampled by c^d (one second
 FEET = (("LeftFoot", "LeftToeBase"), ("RightFoot", "RightToeBase"))
 ACROSS = (("LeftUpLeg", "RightUpLeg"), ("LeftShoulder", "RightShoulder"))
 
+
 @dataclass(frozen=True)
 class FeatureLayout:
     """Where each block sits in x_n and c_n, for ``n_joints`` joints and ``n_types`` types."""
