@@ -22,7 +22,7 @@ import torch
 
 from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-from mocapviz.datasets.motion_types import one_hot
+from mocapviz.features.motion_types import one_hot
 from mocapviz.tasks.generate import Generator, freezing_share
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))

@@ -45,7 +45,7 @@ from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
 from data_prep.motion_types import merged_type
 from data_prep.sources import find_data_dir
 from mocapviz.datasets.ccnet import CCNetDataset, DatasetConfig
-from mocapviz.datasets.motion_types import MOTION_TYPES
+from mocapviz.features.motion_types import MOTION_TYPES
 from mocapviz.features import ccnet as feat
 
 DATASET_VERSION = 3  # 2: validation split; 3: validation = one whole held-out actor

@@ -4,7 +4,7 @@ HDM05's 11 classes keep their own type, except where a CMU clip shows the same a
 run joins HDM05's jog (jogLeftCircle), CMU jump joins hopBothLegs, CMU kick joins kickLFront.
 CMU walk is its own type (HDM05 has only sneaking steps), and CMU punch is kept as a type for
 the paper's vocabulary though no clip here carries it. The vocabulary itself (the meaning of
-the one-hot c^t) is :data:`mocapviz.datasets.motion_types.MOTION_TYPES`.
+the one-hot c^t) is :data:`mocapviz.features.motion_types.MOTION_TYPES`.
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ from IPython.display import Image, display
 
 from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-from mocapviz.datasets.motion_types import one_hot
+from mocapviz.features.motion_types import one_hot
 from mocapviz.features.ccnet import joint_speed
 from mocapviz.ik import foot_slide
 from mocapviz.models.ccnet_config import receptive_field

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from data_prep.motion_types import merged_type
-from mocapviz.datasets.motion_types import MOTION_TYPES
+from mocapviz.features.motion_types import MOTION_TYPES
 from mocapviz.features import ccnet as feat
 
 

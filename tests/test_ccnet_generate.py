@@ -6,7 +6,7 @@ import torch
 
 from ccnet_reference import full_recompute_outputs, step_outputs
 from data_prep import zoo
-from mocapviz.datasets.motion_types import one_hot
+from mocapviz.features.motion_types import one_hot
 from mocapviz.ik import foot_slide, remove_foot_sliding
 from mocapviz.models.steppers import CCNetStepper, NumpyStepper
 from mocapviz.tasks.generate import Generator, freezing_share

@@ -20,7 +20,7 @@ integrates into the path. Control c_n = (c^s, c^d, c^t): skeleton configuration 
 and root-relative rest positions, 3J-2), the 12-D trajectory (root ground positions 10, 20,
 ..., 60 frames ahead in frame n's heading frame; past a clip's end the path is extrapolated
 at the clip's last 0.25 s mean velocity), and the motion-type one-hot over
-:data:`mocapviz.datasets.motion_types.MOTION_TYPES`.
+:data:`mocapviz.features.motion_types.MOTION_TYPES`.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mocapviz.datasets.motion_types import MOTION_TYPES
+from mocapviz.features.motion_types import MOTION_TYPES
 from mocapviz.heading import (across_vector, facing_direction, from_heading_frame, heading_of, to_heading_frame,
                               wrap_angle, yaw_matrix)
 from mocapviz.kinematics import foot_contacts

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from mocapviz.datasets.motion_types import one_hot
+from mocapviz.features.motion_types import one_hot
 
 
 class WindowData:
