@@ -65,7 +65,7 @@ class Generator:
         self.rng = np.random.default_rng(seed)
         self.cfg = model.cfg
         self.layout = FeatureLayout((self.cfg.n_x - 6) // 12, self.cfg.n_types)
-        self.out = self.cfg.output_slices   # where mean, s, contact logits, c^d sit in a raw output
+        self.parts = self.cfg.output_slices  # where mean, s, contact logits, c^d sit in a raw output
         self.backend = ("numpy" if batch <= 8 else "torch") if backend == "auto" else backend
         self.stepper = model.stepper(batch, self.backend)
         if self.backend == "numpy":
@@ -78,7 +78,7 @@ class Generator:
     def _write_next(self, raw: np.ndarray, dest: np.ndarray) -> np.ndarray:
         """Frame t+1 into ``dest`` (B, n_x): the mean (or a Gaussian sample) and the contact
         labels (logit > 0); returns the predicted c^d (normalised), a view of ``raw``."""
-        n, out = self.cfg.n_continuous, self.out
+        n, out = self.cfg.n_continuous, self.parts
         if self.sample:
             sigma = np.maximum(np.exp(-raw[:, out["s"]]), self.cfg.sigma_min)
             dest[:, :n] = raw[:, out["mean"]] + sigma * self.rng.standard_normal(sigma.shape, dtype=np.float32)
@@ -147,7 +147,7 @@ class Generator:
             if t + 1 >= s:
                 pred_traj = self._write_next(raw, xs[:, t + 1]).copy()
             else:
-                pred_traj = raw[:, self.out["traj_mean"]].copy()
+                pred_traj = raw[:, self.parts["traj_mean"]].copy()
         return Generated(norm.denorm_x(xs), s, xs)
 
 
