@@ -7,7 +7,7 @@ export VTK_DEFAULT_OPENGL_WINDOW ?= vtkEGLRenderWindow
 export PYVISTA_OFF_SCREEN ?= true
 export MPLBACKEND ?= Agg
 
-.PHONY: setup demo lab test test-unit test-notebooks bench clean
+.PHONY: setup demo lab test test-unit test-notebooks train bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,11 @@ test: setup
 
 test-unit: setup
 	$(PY) -m pytest -q tests
+
+# CONFIG=quick|default|paper; resumes cache/runs/$(CONFIG) if it holds a checkpoint
+CONFIG ?= quick
+train: setup
+	$(PY) -m data_prep train --config $(CONFIG) --out cache/runs/$(CONFIG)
 
 bench: setup
 	$(PY) benchmarks/bench_io.py

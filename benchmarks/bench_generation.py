@@ -13,14 +13,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 
+from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-from mocapviz import zoo
-from mocapviz.tasks.generate import Generator, clip_types, freezing_share, full_recompute_outputs, step_outputs
+from mocapviz.features.motion_types import one_hot
+from mocapviz.tasks.generate import Generator, freezing_share
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+from ccnet_reference import full_recompute_outputs, step_outputs  # noqa: E402 - the tests' reference
 
 
 def seeds(ds, n, batch_types=None):
@@ -36,7 +42,7 @@ def gen_inputs(ds, rows, n_seed, n_types):
     x = np.stack([a["x"][:n_seed] for a in arrs])
     traj = np.stack([a["traj"][:n_seed] for a in arrs])
     skel = np.stack([a["skel"] for a in arrs])
-    types = np.concatenate([clip_types(a["type_index"], n_types) for a in arrs])
+    types = one_hot([a["type_index"] for a in arrs], n_types)
     return x, traj, skel, types
 
 
@@ -57,7 +63,7 @@ def time_naive(model, norm, ds, batch, frames, n_seed=30):
     rows = (seeds(ds, 10) * (batch // 10 + 1))[:batch]
     x, traj, skel, types = gen_inputs(ds, rows, n_seed, model.cfg.n_types)
     crl = model.cfg.receptive_field
-    n = model.cfg.n_cont
+    n = model.cfg.n_continuous
     xs = torch.zeros(batch, n_seed + frames, model.cfg.n_x)
     xs[:, :n_seed] = torch.from_numpy(norm.norm_x(x))
     tr = torch.zeros(batch, n_seed + frames, model.cfg.n_traj)

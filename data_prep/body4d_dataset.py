@@ -4,7 +4,7 @@ Real mocap (CMU walk/run BVH, HDM05 jog/sneak/hop ASF/AMC) -> per subject, anny'
 fitted to the subject's bone lengths -> every clip retargeted onto that body -> single gait
 cycles found by DTW on hip rotation curves -> each cycle as chi = [Theta, Gamma, Phi]
 (100 time-stamped frames) with the subject's beta. Meshes are not stored: mesh a cycle on
-demand with :meth:`Body4DDataset.mesh`.
+demand with :meth:`mocapviz.datasets.body4d.Body4DDataset.mesh`.
 
 Train/test split by subject (whole people held out, so that the test bodies are unseen by a
 shape-conditioned decoder): HDM05 actors mm and tr (the hold-out the catalog and CCNet use)
@@ -21,17 +21,18 @@ import dataclasses
 import hashlib
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+import mocapviz.datasets.body4d as container
 from data_prep.cached import load_or_build
 from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
-from mocapviz.atomic import atomic_path
 from data_prep.sources import find_data_dir
+from mocapviz.datasets.body4d import Body4DDataset
 
 DATASET_VERSION = 1
 # The cyclic locomotion clips and the short type names used in the dataset.
@@ -64,47 +65,6 @@ class Body4DConfig:
         return cls(subjects=QUICK_SUBJECTS, clips_per_type=2)
 
 
-@dataclass
-class Body4DDataset:
-    """chi (N, n_frames, 6K+4) float32, beta (N, 6), one row per cycle in ``cycles``,
-    per-subject shape fits in ``subjects``, per-clip retargeting numbers in ``clips``."""
-
-    chi: np.ndarray
-    beta: np.ndarray
-    cycles: pd.DataFrame
-    subjects: pd.DataFrame
-    clips: pd.DataFrame
-    meta: dict = field(default_factory=dict)
-
-    def __len__(self) -> int:
-        return len(self.chi)
-
-    @property
-    def gamma_scale(self) -> np.ndarray:
-        return np.asarray(self.meta["gamma_scale"])
-
-    def split_indices(self, split: str) -> np.ndarray:
-        return np.flatnonzero(self.cycles["split"].values == split)
-
-    def mesh(self, i: int, body=None, on_ground: bool = True):
-        """Vertices (n_frames, V, 3) of cycle i (metres, Y up), from chi and beta.
-
-        ``on_ground`` puts the first frame's root back at its height (the Hips above the
-        floor), facing +Z at the origin; otherwise the first root is at the origin."""
-        from mocapviz.bodies.anny_model import body_model
-        from mocapviz.bodies.representation import mesh_chi
-
-        body = body or body_model()
-        root0 = (0.0, float(self.cycles["root0_y"].iloc[i]), 0.0) if on_ground else (0.0, 0.0, 0.0)
-        return mesh_chi(body, self.beta[i], self.chi[i], self.gamma_scale, root0)
-
-    def counts(self) -> pd.DataFrame:
-        """Cycles per motion type (rows) and subject (columns), with totals."""
-        c = self.cycles[~self.cycles["mirrored"]]
-        t = pd.crosstab(c["type"], c["subject"], margins=True, margins_name="total")
-        return t
-
-
 # ---------------------------------------------------------------------------------- build
 def _catalog_rows(config: Body4DConfig, root: Path) -> pd.DataFrame:
     cat = build_catalog(root)
@@ -126,7 +86,8 @@ def dataset_hash(config: Body4DConfig, root: Path) -> str:
     import mocapviz.features.cycles as cycles_mod
 
     h = hashlib.sha256(f"v{DATASET_VERSION}\n{config.key()}\n{cache_key(root)}\nanny={anny.__version__}\n".encode())
-    for p in sorted(Path(bodies.__file__).parent.glob("*.py")) + [Path(cycles_mod.__file__), Path(__file__)]:
+    for p in sorted(Path(bodies.__file__).parent.glob("*.py")) + [Path(cycles_mod.__file__), Path(container.__file__),
+                                                                  Path(__file__)]:
         h.update(p.read_bytes())
     return h.hexdigest()[:16]
 
@@ -166,7 +127,7 @@ def build_dataset(config: Body4DConfig = Body4DConfig(), data_dir=None, cache: b
         ds.meta["hash"] = path.stem
         return ds
 
-    return load_or_build(path, load_dataset, build, save_dataset, cache)
+    return load_or_build(path, Body4DDataset.load, build, Body4DDataset.save, cache)
 
 
 def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:
@@ -223,28 +184,6 @@ def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:
                 test_subjects=list(config.test_subjects),
                 build_seconds=round(time.perf_counter() - t0, 1))
     return Body4DDataset(chi, beta, cycles, subjects, pd.DataFrame(clip_rows), meta)
-
-
-def _frame_bytes(df: pd.DataFrame) -> np.ndarray:
-    return np.frombuffer(df.to_json(orient="split", double_precision=15).encode(), dtype=np.uint8)
-
-
-def save_dataset(ds: Body4DDataset, path: Path) -> None:
-    arrays = dict(chi=ds.chi, beta=ds.beta, cycles=_frame_bytes(ds.cycles), subjects=_frame_bytes(ds.subjects),
-                  clips=_frame_bytes(ds.clips), meta=np.frombuffer(json.dumps(ds.meta).encode(), dtype=np.uint8))
-    with atomic_path(path, suffix=".tmp.npz") as tmp:
-        np.savez(tmp, **arrays)
-
-
-def load_dataset(path: str | Path) -> Body4DDataset:
-    from io import StringIO
-
-    def frame(z, k):
-        return pd.read_json(StringIO(z[k].tobytes().decode()), orient="split", dtype=False)
-
-    with np.load(path) as z:
-        return Body4DDataset(z["chi"], z["beta"], frame(z, "cycles"), frame(z, "subjects"), frame(z, "clips"),
-                             json.loads(z["meta"].tobytes().decode()))
 
 
 def summary(ds: Body4DDataset) -> str:

@@ -2,7 +2,8 @@
 
 ``python -m data_prep build ccnet`` (or ``python -m data_prep.ccnet_dataset``) builds it from
 the HDM05 and CMU clips of the catalog: 25 joints, 60 fps, features of
-:mod:`mocapviz.features.ccnet`. The result is cached as one ``.npz`` under
+:mod:`mocapviz.features.ccnet`, into a :class:`mocapviz.datasets.ccnet.CCNetDataset`. The
+result is cached as one ``.npz`` under
 ``cache/ccnet/``, keyed by a hash of the config, the data files and the feature code, and
 written atomically.
 
@@ -32,95 +33,22 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+import mocapviz.datasets.ccnet as container
 from data_prep.cached import load_or_build
 from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
+from data_prep.motion_types import merged_type
 from data_prep.sources import find_data_dir
-from mocapviz.atomic import atomic_path
+from mocapviz.datasets.ccnet import CCNetDataset, DatasetConfig
+from mocapviz.features.motion_types import MOTION_TYPES
 from mocapviz.features import ccnet as feat
-from mocapviz.skeleton import CCNET_25_JOINTS
 
 DATASET_VERSION = 3  # 2: validation split; 3: validation = one whole held-out actor
-
-
-@dataclass(frozen=True)
-class DatasetConfig:
-    fps: float = feat.FPS
-    window: int = 60                       # NCF: frames per training window
-    sources: tuple[str, ...] = ("hdm05", "cmu")
-    test_subject: str = ""                 # "" = random HDM05 actor (seeded)
-    val_subject: str = "mm"                # whole actor held out for validation (model selection)
-    seed: int = 7
-    joints: tuple[str, ...] = field(default=CCNET_25_JOINTS)
-
-    def key(self) -> str:
-        return json.dumps(asdict(self), sort_keys=True)
-
-
-@dataclass
-class CCNetDataset:
-    """Frame vectors of every clip, stacked; ``clips`` says where each clip's rows are."""
-
-    x: np.ndarray             # (N, n_x) raw (unnormalised) frame vectors
-    traj: np.ndarray          # (N, 12) raw c^d
-    skel: np.ndarray          # (n_clips, 3J-2) raw c^s per clip
-    clips: pd.DataFrame       # clip, subject, source, motion_type, type, type_index, split
-                              # (train / val / test), start, stop, ...
-    normaliser: feat.Normaliser
-    config: DatasetConfig
-    joint_names: tuple[str, ...]
-    offsets: np.ndarray       # (n_clips, J, 3) rest offsets per clip (its skeleton)
-    parents: np.ndarray       # (J,)
-    meta: dict
-
-    @property
-    def layout(self) -> feat.FeatureLayout:
-        return feat.FeatureLayout(len(self.joint_names))
-
-    def skeleton(self, clip_row: int):
-        from mocapviz.skeleton import Skeleton
-        return Skeleton(self.joint_names, self.parents, self.offsets[clip_row])
-
-    def window_starts(self, split: str, window: int | None = None, stride: int = 1) -> np.ndarray:
-        """(n, 2) array of (clip row, start within the clip's rows) of every window of the split.
-
-        A window of length W at start s uses inputs s..s+W-1, controls and targets s+1..s+W
-        and predicted controls s+2..s+W+1, all inside the clip.
-        """
-        w = window or self.config.window
-        out = []
-        for i, r in enumerate(self.clips.itertuples()):
-            n = r.stop - r.start
-            if r.split != split or not r.trainable or n < w + 2:
-                continue
-            s = np.arange(0, n - w - 1, stride)
-            out.append(np.stack([np.full(len(s), i), s], axis=1))
-        return np.concatenate(out) if out else np.zeros((0, 2), dtype=np.int64)
-
-    def clip_arrays(self, clip_row: int) -> dict[str, np.ndarray]:
-        r = self.clips.iloc[clip_row]
-        sl = slice(int(r.start), int(r.stop))
-        return dict(x=self.x[sl], traj=self.traj[sl], skel=self.skel[clip_row],
-                    type_index=int(r.type_index))
-
-    def clip_motion(self, clip_row: int):
-        """The clip as a Motion rebuilt from its features (frames 1.. of the 60 fps clip)."""
-        r = self.clips.iloc[clip_row]
-        return feat.features_to_motion(self.x[int(r.start):int(r.stop)], self.skeleton(clip_row),
-                                       (r.root_x, r.root_y, r.root_z), r.heading, self.config.fps,
-                                       name=r.clip)
-
-    def clip_row(self, name: str) -> int:
-        hits = np.flatnonzero(self.clips["clip"].values == name)
-        if not len(hits):
-            raise KeyError(f"no clip {name!r} in the dataset")
-        return int(hits[0])
 
 
 def _choose_split(clips: pd.DataFrame, config: DatasetConfig, long_enough: np.ndarray) -> np.ndarray:
@@ -151,8 +79,8 @@ def _choose_split(clips: pd.DataFrame, config: DatasetConfig, long_enough: np.nd
 
 def dataset_hash(config: DatasetConfig, root: Path) -> str:
     h = hashlib.sha256(f"v{DATASET_VERSION}\n{config.key()}\n{cache_key(root)}\n".encode())
-    h.update(Path(feat.__file__).read_bytes())
-    h.update(Path(__file__).read_bytes())
+    for code in (feat.__file__, container.__file__, __file__):
+        h.update(Path(code).read_bytes())
     return h.hexdigest()[:16]
 
 
@@ -169,10 +97,10 @@ def _extract(config: DatasetConfig, root: Path, progress: bool):
         m = m.keep_joints(config.joints) if m.skeleton.names != tuple(config.joints) else m
         f = feat.motion_features(m, config.fps)
         names, parents = m.skeleton.names, m.skeleton.parents
-        mtype = feat.merged_type(r.source, r.motion_type)
+        mtype = merged_type(r.source, r.motion_type)
         n = len(f.x)
         rows.append(dict(clip=r.clip, subject=r.subject, source=r.source, motion_type=r.motion_type,
-                         type=mtype, type_index=feat.MOTION_TYPES.index(mtype), trainable=bool(r.trainable),
+                         type=mtype, type_index=MOTION_TYPES.index(mtype), trainable=bool(r.trainable),
                          start=at, stop=at + n, root_x=f.start_root[0], root_y=f.start_root[1],
                          root_z=f.start_root[2], heading=f.start_heading,
                          height=m.skeleton.standing_height()))
@@ -192,8 +120,8 @@ def build_dataset(config: DatasetConfig = DatasetConfig(), data_dir=None, cache:
     root = find_data_dir(data_dir)
     cache_dir = Path(cache_dir) if cache_dir is not None else CACHE_DIR / "ccnet"
     path = cache_dir / f"ccnet-{dataset_hash(config, root)}.npz"
-    return load_or_build(path, lambda p: load_dataset(p, config), lambda: _build(config, root, path, progress),
-                         save_dataset, cache)
+    return load_or_build(path, lambda p: CCNetDataset.load(p, config), lambda: _build(config, root, path, progress),
+                         CCNetDataset.save, cache)
 
 
 def _build(config: DatasetConfig, root: Path, path: Path, progress: bool) -> CCNetDataset:
@@ -206,7 +134,7 @@ def _build(config: DatasetConfig, root: Path, path: Path, progress: bool) -> CCN
     train_clips = (clips.split == "train").values
     frame_clip = np.repeat(np.arange(len(clips)), (clips.stop - clips.start).values)
     normaliser = feat.Normaliser.fit(x[train_rows], skel[frame_clip[train_rows]], traj[train_rows],
-                                     layout.n_cont)
+                                     layout.n_continuous)
     train_speed = feat.joint_speed(x[train_rows], layout)
     meta = dict(version=DATASET_VERSION, config=json.loads(config.key()), data_dir=str(root),
                 hash=path.stem, build_seconds=round(time.perf_counter() - t0, 2),
@@ -216,29 +144,8 @@ def _build(config: DatasetConfig, root: Path, path: Path, progress: bool) -> CCN
                 val_clips=clips[clips.split == "val"]["clip"].tolist(),
                 n_train_clips=int(train_clips.sum()), n_frames=int(len(x)),
                 n_train_frames=int(len(train_rows)), train_mean_joint_speed=float(train_speed.mean()),
-                motion_types=list(feat.MOTION_TYPES), joint_names=list(names))
+                motion_types=list(MOTION_TYPES), joint_names=list(names))
     return CCNetDataset(x, traj, skel, clips, normaliser, config, names, offsets, parents, meta)
-
-
-def save_dataset(ds: CCNetDataset, path: Path) -> None:
-    arrays = dict(x=ds.x, traj=ds.traj, skel=ds.skel, offsets=ds.offsets, parents=ds.parents,
-                  clips=np.frombuffer(ds.clips.to_json(orient="split").encode(), dtype=np.uint8),
-                  meta=np.frombuffer(json.dumps(ds.meta).encode(), dtype=np.uint8))
-    arrays.update({f"norm_{k}": v for k, v in ds.normaliser.state_dict().items()})
-    with atomic_path(path, suffix=".tmp.npz") as tmp:
-        np.savez(tmp, **arrays)
-
-
-def load_dataset(path: str | Path, config: DatasetConfig | None = None) -> CCNetDataset:
-    from io import StringIO
-    with np.load(path) as z:
-        meta = json.loads(z["meta"].tobytes().decode())
-        clips = pd.read_json(StringIO(z["clips"].tobytes().decode()), orient="split")
-        norm = feat.Normaliser.from_state_dict({k[5:]: z[k] for k in z.files if k.startswith("norm_")})
-        cfg = config or DatasetConfig(**{k: tuple(v) if isinstance(v, list) else v
-                                         for k, v in meta["config"].items()})
-        return CCNetDataset(z["x"], z["traj"], z["skel"], clips, norm, cfg, tuple(meta["joint_names"]),
-                            z["offsets"], z["parents"], meta)
 
 
 try:  # register `python -m data_prep build ccnet` when the build registry exists

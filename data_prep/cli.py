@@ -1,4 +1,4 @@
-"""``python -m data_prep {catalog,build,download}``: see ``--help`` of each subcommand."""
+"""``python -m data_prep {catalog,build,download,train}``: see ``--help`` of each subcommand."""
 
 from __future__ import annotations
 
@@ -54,6 +54,11 @@ def _download(args) -> int:
     return 0
 
 
+def _train(args) -> int:
+    from data_prep.train import run
+    return run(args)
+
+
 def parser() -> argparse.ArgumentParser:
     from data_prep.download import DEFAULT_DEST
     p = argparse.ArgumentParser(prog="python -m data_prep", description=__doc__)
@@ -81,6 +86,11 @@ def parser() -> argparse.ArgumentParser:
                    help="accept the academic-only license of Human3.6M (required to fetch h36m)")
     d.add_argument("--force", action="store_true", help="download again even if files exist")
     d.set_defaults(func=_download)
+
+    from data_prep.train import add_arguments
+    t = sub.add_parser("train", help="train a model on the CCNet dataset (see data_prep/train.py)")
+    add_arguments(t)
+    t.set_defaults(func=_train)
     return p
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mocapviz.heading import shortest_arc
 from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
@@ -33,18 +34,6 @@ def global_to_local(global_rotations: np.ndarray, parents) -> np.ndarray:
     local = np.array(global_rotations, copy=True)
     local[..., 1:, :, :] = np.swapaxes(global_rotations[..., parents[1:], :, :], -1, -2) @ global_rotations[..., 1:, :, :]
     return local
-
-
-def _batch_min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest rotations (N, 3, 3) taking directions a (N, 3) to b (N, 3) (not opposite)."""
-    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    v = np.cross(a, b)
-    c = np.einsum("ni,ni->n", a, b)
-    vx = np.zeros(a.shape[:-1] + (3, 3))
-    vx[..., 0, 1], vx[..., 0, 2], vx[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    vx[..., 1, 0], vx[..., 2, 0], vx[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
-    return np.eye(3) + vx + vx @ vx / np.maximum(1 + c, 1e-9)[..., None, None]
 
 
 def two_bone_ik(global_rotations: np.ndarray, positions: np.ndarray, skeleton: Skeleton, targets: dict,
@@ -76,10 +65,10 @@ def two_bone_ik(global_rotations: np.ndarray, positions: np.ndarray, skeleton: S
                         fallback / np.linalg.norm(fallback, axis=-1, keepdims=True))
         cos_a = np.clip((l1 ** 2 + d ** 2 - l2 ** 2) / (2 * l1 * d), -1.0, 1.0)  # law of cosines at the hip
         K_new = H + l1 * (cos_a[:, None] * u + np.sqrt(1 - cos_a ** 2)[:, None] * bend)
-        r1 = _batch_min_rotation(K - H, K_new - H)
+        r1 = shortest_arc(K - H, K_new - H)
         glob[:, h] = r1 @ glob[:, h]
         shin_old = np.einsum("nij,nj->ni", r1, A - K)
-        r2 = _batch_min_rotation(shin_old, H + d[:, None] * u - K_new)
+        r2 = shortest_arc(shin_old, H + d[:, None] * u - K_new)
         glob[:, k] = r2 @ r1 @ glob[:, k]
     return glob
 

@@ -1,10 +1,12 @@
-"""Named trained models: load the committed checkpoint, else train (and cache) it.
+"""Named trained models: a committed checkpoint, else a cached run, else train it when handed data.
 
-``load("ccnet_default")`` returns ``(model, normaliser, meta)``. It looks for
-``models/zoo/<name>.safetensors`` (committed, so notebooks and CI never retrain), then for a
-cached run under ``cache/zoo/<name>-<hash>/`` (hash of the training config and the dataset),
+``load("ccnet_default", zoo_dir, cache_dir, dataset)`` returns ``(model, normaliser, meta)``. It
+looks for ``<zoo_dir>/<name>.safetensors`` (committed, so notebooks and CI never retrain), then
+for a cached run ``<cache_dir>/<name>-<hash>/`` (hash of the training config and the dataset),
 and otherwise trains that run (resuming if interrupted) with
-:func:`mocapviz.training.trainer.train` and caches its best-by-validation model.
+:func:`mocapviz.training.trainer.train` and caches its best-by-validation model. The library
+knows no repository paths: :mod:`data_prep.zoo` passes the repository's ``models/zoo/`` and
+``cache/zoo/`` and the dataset builder.
 """
 
 from __future__ import annotations
@@ -13,35 +15,36 @@ import hashlib
 from pathlib import Path
 
 from mocapviz.training.checkpoint import load_checkpoint
-from mocapviz.training.trainer import TRAIN_CONFIGS, export_model, train
-
-REPO_ROOT = Path(__file__).resolve().parent.parent
-ZOO_DIR = REPO_ROOT / "models" / "zoo"
-CACHE_DIR = REPO_ROOT / "cache" / "zoo"
+from mocapviz.training.config import TRAIN_CONFIGS
+from mocapviz.training.runs import export_model
+from mocapviz.training.trainer import train
 
 MODELS = {f"ccnet_{k}": k for k in TRAIN_CONFIGS}
 
 
-def committed_path(name: str) -> Path:
-    return ZOO_DIR / f"{name}.safetensors"
+def committed_path(name: str, zoo_dir) -> Path:
+    return Path(zoo_dir) / f"{name}.safetensors"
 
 
-def load(name: str = "ccnet_default", retrain_if_missing: bool = True, prefer_committed: bool = True,
-         progress: bool = True):
+def load(name: str = "ccnet_default", zoo_dir=None, cache_dir=None, dataset=None, retrain_if_missing: bool = True,
+         prefer_committed: bool = True, progress: bool = True):
+    """``dataset``: a CCNet dataset, or a function that builds one (called only when no committed
+    checkpoint is used); it keys the cached run and is what a missing run trains on."""
     if name not in MODELS:
         raise KeyError(f"unknown model {name!r}; known: {sorted(MODELS)}")
-    path = committed_path(name)
-    if prefer_committed and path.is_file():
-        return load_checkpoint(path)
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    ds = build_dataset(DatasetConfig(), progress=progress)
+    if prefer_committed and zoo_dir is not None and committed_path(name, zoo_dir).is_file():
+        return load_checkpoint(committed_path(name, zoo_dir))
+    if dataset is None or cache_dir is None:
+        raise FileNotFoundError(f"{name}: no committed checkpoint in {zoo_dir}; pass cache_dir and dataset "
+                                "(a dataset or a builder) to use or train a cached run")
+    ds = dataset() if callable(dataset) else dataset
     cfg = TRAIN_CONFIGS[MODELS[name]]
     key = hashlib.sha256(f"{cfg.to_json()}\n{ds.meta['hash']}".encode()).hexdigest()[:12]
-    run = CACHE_DIR / f"{name}-{key}"
+    run = Path(cache_dir) / f"{name}-{key}"
     model_file = run / "model.safetensors"
     if not model_file.is_file():
         if not retrain_if_missing:
-            raise FileNotFoundError(f"{name}: no committed checkpoint at {path} and no cached run {run}")
+            raise FileNotFoundError(f"{name}: no committed checkpoint in {zoo_dir} and no cached run {run}")
         train(ds, cfg, run, resume=True, progress=progress)
         export_model(run, model_file)  # the best-by-validation model of the run
     return load_checkpoint(model_file)

@@ -42,14 +42,18 @@ import pandas as pd
 import torch
 from IPython.display import Image, display
 
+from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-from mocapviz import zoo
+from mocapviz.features.motion_types import one_hot
 from mocapviz.features.ccnet import joint_speed
 from mocapviz.ik import foot_joints
 from mocapviz.metrics import foot_sliding
-from mocapviz.models.ccnet import count_parameters, receptive_field
-from mocapviz.tasks.generate import Generator, clip_types, freezing_share
-from mocapviz.training.trainer import TRAIN_CONFIGS, WindowData, evaluate
+from mocapviz.models.ccnet_config import receptive_field
+from mocapviz.models.protocol import count_parameters
+from mocapviz.tasks.generate import Generator, freezing_share
+from mocapviz.training.config import TRAIN_CONFIGS
+from mocapviz.training.trainer import evaluate
+from mocapviz.training.windows import WindowData
 from mocapviz.viz import scene, show_figure
 from mocapviz.viz.ccnet import plot_controls, plot_joint_speed, plot_training_curves
 
@@ -217,7 +221,7 @@ for label, clip in subjects.items():
     r, a = ds.clips.iloc[row], ds.clip_arrays(row)
     seed, n = 60, SECONDS * 60
     t = time.perf_counter()
-    out = Generator(model, norm).run(a["x"][None, :seed], a["skel"][None], clip_types(a["type_index"], cfg.n_types), n,
+    out = Generator(model, norm).run(a["x"][None, :seed], a["skel"][None], one_hot([a["type_index"]], cfg.n_types), n,
                                      seed_traj=a["traj"][None, :seed])
     dt = time.perf_counter() - t
     start = (r.root_x, r.root_y, r.root_z)
@@ -261,7 +265,7 @@ rows = test_rows.assign(o=test_rows.groupby("type").cumcount()).sort_values(["o"
 arrs = [ds.clip_arrays(int(i)) for i in rows]
 g10 = Generator(model, norm, batch=len(arrs)).run(
     np.stack([a["x"][:60] for a in arrs]), np.stack([a["skel"] for a in arrs]),
-    np.concatenate([clip_types(a["type_index"], cfg.n_types) for a in arrs]), secs * 60,
+    one_hot([a["type_index"] for a in arrs], cfg.n_types), secs * 60,
     seed_traj=np.stack([a["traj"][:60] for a in arrs]))
 share = freezing_share(g10.x[:, 60:], layout, ds.meta["train_mean_joint_speed"])
 print(f"freezing share over {len(arrs)} x {secs} s: {share:.3f}")

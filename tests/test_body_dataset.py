@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from data_prep.body4d_dataset import Body4DConfig, build_dataset, load_dataset
+from data_prep.body4d_dataset import Body4DConfig, build_dataset
+from mocapviz.datasets.body4d import Body4DDataset
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +52,7 @@ def test_cache_round_trip(built, data_dir):
     again = build_dataset(cfg, data_dir, cache_dir=cache, progress=False)
     assert time.perf_counter() - t < 5
     np.testing.assert_array_equal(again.chi, ds.chi)
-    np.testing.assert_array_equal(load_dataset(files[0]).beta, ds.beta)
+    np.testing.assert_array_equal(Body4DDataset.load(files[0]).beta, ds.beta)
     pd.testing.assert_frame_equal(again.cycles, ds.cycles, check_dtype=False, rtol=1e-12)
 
 

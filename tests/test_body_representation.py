@@ -7,7 +7,8 @@ import pytest
 
 from mocapviz.bodies.anny_model import body_model
 from mocapviz.bodies.representation import (DROPPED_JOINTS, N_FRAMES, chi_from_mesh, chi_joint_indices, decode,
-                                            encode, heading, mesh_chi, split_chi)
+                                            encode, mesh_chi, split_chi)
+from mocapviz.heading import rotation_heading
 
 
 @pytest.fixture(scope="session")
@@ -46,7 +47,7 @@ def test_chi_layout_and_normalisation(body, real_cycle):
     assert np.abs(theta).max() < 2.01  # a 6-D rotation minus identity is bounded by 2
     assert gamma[-1, 2] > 0.4  # a forward walk goes along +Z after the heading is removed
     rot2, root2, t2 = decode(chi, kept, body.n_joints, GAMMA_SCALE)
-    assert abs(heading(rot2[0, 0])) < 1e-5  # initial heading is the identity in the ground plane
+    assert abs(rotation_heading(rot2[0, 0])) < 1e-5  # initial heading is the identity in the ground plane
     np.testing.assert_allclose(rot2[:, kept[1:]], rot[:, kept[1:]], atol=1e-5)  # non-root joints unchanged
 
 

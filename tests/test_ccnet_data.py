@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+from data_prep.motion_types import merged_type
+from mocapviz.features.motion_types import MOTION_TYPES
 from mocapviz.features import ccnet as feat
 
 
@@ -27,7 +29,7 @@ def test_features_round_trip_to_poses(ds):
 
 def test_layout_sizes():
     lay = feat.FeatureLayout(25)
-    assert lay.n_x == 306 and lay.n_cont == 304 and lay.n_skel == 73 and lay.n_traj == 12
+    assert lay.n_x == 306 and lay.n_continuous == 304 and lay.n_skel == 73 and lay.n_traj == 12
     assert lay.x_blocks["contact"] == slice(304, 306)
 
 
@@ -91,7 +93,7 @@ def test_val_subject_must_differ_from_test_subject_and_exist(ds):
 def test_normaliser_uses_training_clips_only(ds):
     train = np.concatenate([np.arange(r.start, r.stop) for r in ds.clips.itertuples() if r.split == "train"])
     with_val = np.concatenate([np.arange(r.start, r.stop) for r in ds.clips.itertuples() if r.split != "test"])
-    n = ds.layout.n_cont
+    n = ds.layout.n_continuous
     np.testing.assert_allclose(ds.normaliser.x_mean, ds.x[train, :n].mean(0), rtol=1e-4, atol=1e-5)
     assert not np.allclose(ds.normaliser.x_mean, ds.x[:, :n].mean(0), rtol=1e-4, atol=1e-5)
     assert not np.allclose(ds.normaliser.x_mean, ds.x[with_val, :n].mean(0), rtol=1e-5, atol=1e-6)
@@ -110,7 +112,7 @@ def test_windows_stay_inside_clips(ds):
 
 def test_every_catalog_type_is_merged(catalog):
     rows = catalog[catalog.source.isin(["hdm05", "cmu"])]
-    merged = {feat.merged_type(s, t) for s, t in zip(rows.source, rows.motion_type)}
-    assert merged <= set(feat.MOTION_TYPES)
+    merged = {merged_type(s, t) for s, t in zip(rows.source, rows.motion_type)}
+    assert merged <= set(MOTION_TYPES)
     assert len({t for s, t in zip(rows.source, rows.motion_type) if s == "hdm05"}) == 11
-    assert feat.merged_type("cmu", "run") == feat.merged_type("hdm05", "jogLeftCircle4StepsRstart") == "jog"
+    assert merged_type("cmu", "run") == merged_type("hdm05", "jogLeftCircle4StepsRstart") == "jog"

@@ -4,11 +4,13 @@ import numpy as np
 import pytest
 import torch
 
-from mocapviz import zoo
+from ccnet_reference import full_recompute_outputs, step_outputs
+from data_prep import zoo
+from mocapviz.features.motion_types import one_hot
 from mocapviz.ik import foot_joints, remove_foot_sliding
 from mocapviz.metrics import foot_sliding
-from mocapviz.models.ccnet import CCNetStepper, NumpyStepper
-from mocapviz.tasks.generate import Generator, clip_types, freezing_share, full_recompute_outputs, step_outputs
+from mocapviz.models.steppers import CCNetStepper, NumpyStepper
+from mocapviz.tasks.generate import Generator, freezing_share
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +31,7 @@ def test_committed_checkpoint_is_small_and_self_contained(committed):
     model, norm, meta = committed
     assert zoo.committed_path("ccnet_default").stat().st_size < 10 * 2 ** 20
     assert model.cfg.receptive_field == 41 and not model.training
-    assert meta["dataset"]["joint_names"][0] == "Hips" and len(norm.x_mean) == model.cfg.n_cont
+    assert meta["dataset"]["joint_names"][0] == "Hips" and len(norm.x_mean) == model.cfg.n_continuous
     assert "optim_param_groups" not in meta  # model-only export
 
 
@@ -43,7 +45,7 @@ def seed_inputs(ds, clip, n_seed=40):
 def test_incremental_generation_equals_full_recompute(ds, committed, backend):
     model, norm, _ = committed
     _, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120")
-    types = clip_types(ti, model.cfg.n_types)
+    types = one_hot([ti], model.cfg.n_types)
     g = Generator(model, norm, backend=backend)
     g.keep_outputs = True
     gen = g.run(x, skel, types, 200, seed_traj=traj)
@@ -54,7 +56,7 @@ def test_incremental_generation_equals_full_recompute(ds, committed, backend):
         full = full_recompute_outputs(model, norm, gen, skel, types, used)
     assert np.abs(inc - full).max() < 1e-5
     # the generated frames are the fed-back means (not copies of the seed)
-    assert np.array_equal(gen.x_norm[0, s:, :model.cfg.n_cont], inc[0, s - 1:, :model.cfg.n_cont])
+    assert np.array_equal(gen.x_norm[0, s:, :model.cfg.n_continuous], inc[0, s - 1:, :model.cfg.n_continuous])
 
 
 def test_numpy_and_torch_steppers_agree(committed):
@@ -83,7 +85,7 @@ def test_generated_motion_keeps_moving(ds, committed, clip):
     clip_root = ds.clip_motion(row).root_positions
     speed = np.linalg.norm(np.diff(clip_root[:, [0, 2]], axis=0), axis=1).mean() * 60
     n = 600
-    gen = Generator(model, norm).run(x, skel, clip_types(ti, model.cfg.n_types), n, seed_traj=traj)
+    gen = Generator(model, norm).run(x, skel, one_hot([ti], model.cfg.n_types), n, seed_traj=traj)
     assert freezing_share(gen.x[:, 60:], ds.layout, meta["dataset"]["train_mean_joint_speed"]) < 0.05
     m = gen.motion(0, ds.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False)
     last5 = np.linalg.norm(np.diff(m.root_positions[-300:, [0, 2]], axis=0), axis=1).sum() / 5.0

@@ -6,10 +6,12 @@ import numpy as np
 import pytest
 import torch
 
-from mocapviz.models.ccnet import CCNet, CCNetConfig, CCNetStepper, receptive_field
+from mocapviz.features.ccnet import Normaliser
+from mocapviz.models.ccnet import CCNet
+from mocapviz.models.ccnet_config import CCNetConfig, receptive_field
+from mocapviz.models.steppers import CCNetStepper
 from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint
 from mocapviz.training.losses import ccnet_loss, gaussian_nll, smoothness
-from mocapviz.features.ccnet import Normaliser
 
 
 def small_cfg(dilations=(2,) * 20, **kw):
@@ -90,7 +92,7 @@ def test_incremental_equals_full_recompute(dilations, batch):
     st.set_static(skel, types)
     with torch.inference_mode():
         steps = torch.stack([st.step(x[:, t], traj[:, t]) for t in range(x.shape[1])], 1)
-    n = cfg.n_cont
+    n = cfg.n_continuous
     keep = torch.cat([steps[..., :2 * n + cfg.n_contact], steps[..., 2 * n + cfg.n_contact:][..., :cfg.n_traj]], -1)
     # sigma is clipped at 1e-4 in the full model; compare raw s only where it is not clipped
     s_full = raw_full[..., n:2 * n]
@@ -126,9 +128,9 @@ def test_loss_combines_terms_with_paper_weights():
     m = net(cfg)
     x, skel, traj, types = inputs(cfg)
     out = m(x, skel, traj, types)
-    tx = torch.cat([torch.randn(2, 90, cfg.n_cont), (torch.rand(2, 90, 2) > 0.5).float()], -1)
-    parts = ccnet_loss(out, tx, traj, cfg.n_cont)
-    total = parts["nll"] + 10 * parts["smooth"] + 2 * parts["contact"] + parts["direction"]
+    tx = torch.cat([torch.randn(2, 90, cfg.n_continuous), (torch.rand(2, 90, 2) > 0.5).float()], -1)
+    parts = ccnet_loss(out, tx, traj, cfg.n_continuous)
+    total = parts["nll"] + 10 * parts["smooth"] + 2 * parts["contact"] + parts["traj_nll"]
     assert torch.allclose(parts["loss"], total)
     assert sigma_min_respected(out, cfg)
 

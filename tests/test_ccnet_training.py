@@ -11,7 +11,9 @@ import pytest
 import torch
 
 from mocapviz.training.checkpoint import load_checkpoint
-from mocapviz.training.trainer import TRAIN_CONFIGS, best_row, export_model, train
+from mocapviz.training.config import TRAIN_CONFIGS
+from mocapviz.training.runs import best_row, export_model
+from mocapviz.training.trainer import train
 
 TINY = replace(TRAIN_CONFIGS["quick"], steps=8, batch_size=4, window=30, eval_every=4, checkpoint_every=4,
                dilations=(1, 2, 4))
@@ -90,6 +92,24 @@ def test_resume_refuses_another_config(ds, tmp_path):
         train(ds, replace(TINY, lr=5e-4), tmp_path, progress=False)
 
 
+def test_zoo_trains_only_when_allowed_and_handed_data(ds, tmp_path):
+    from mocapviz import zoo
+    with pytest.raises(FileNotFoundError, match="no cached run"):
+        zoo.load("ccnet_quick", zoo_dir=None, cache_dir=tmp_path, dataset=ds, retrain_if_missing=False)
+    assert not any(tmp_path.iterdir())  # nothing was trained
+
+
+def test_command_line_trains_and_exports(tmp_path, capsys):
+    from data_prep.cli import main
+    out = tmp_path / "run"
+    assert main(["train", "--config", "quick", "--steps", "2", "--batch-size", "2", "--eval-every", "2",
+                 "--out", str(out), "--export", str(tmp_path / "m.safetensors")]) == 0
+    printed = capsys.readouterr().out
+    assert "step 2: val NLL" in printed and "best by validation: step 2" in printed
+    assert load_checkpoint(tmp_path / "m.safetensors")[2]["step"] == 2 and len(rows(out)) == 2
+    assert main(["train", "--config", "huge", "--out", str(out)]) == 2  # unknown config: an error, no traceback
+
+
 def test_checkpoint_carries_config_and_normaliser(ds, tmp_path):
     ckpt = train(ds, TINY, tmp_path, progress=False, stop_after=4)
     model, norm, meta = load_checkpoint(ckpt)
@@ -102,7 +122,7 @@ def test_checkpoint_carries_config_and_normaliser(ds, tmp_path):
 def test_torchrun_two_processes_gloo(ds, tmp_path):
     env = dict(os.environ, OMP_NUM_THREADS="1")
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2", "--master_port=29517",
-           "-m", "mocapviz.training.trainer", "--config", "quick", "--steps", "4", "--batch-size", "4",
+           "-m", "data_prep", "train", "--config", "quick", "--steps", "4", "--batch-size", "4",
            "--eval-every", "2", "--out", str(tmp_path)]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300,
                          cwd=Path(__file__).resolve().parent.parent)

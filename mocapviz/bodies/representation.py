@@ -25,6 +25,7 @@ import torch
 from mocapviz.bodies.anny_model import BodyModel
 from mocapviz.bodies.retarget import STATIC_JOINTS
 from mocapviz.features.cycles import MAX_CYCLE_S
+from mocapviz.heading import rotation_heading, yaw_matrix
 from mocapviz.rotations import matrix_to_sixd, sixd_to_matrix
 
 N_FRAMES = 100
@@ -45,25 +46,14 @@ def split_chi(chi: np.ndarray, n_kept: int):
     return theta, chi[..., 6 * n_kept:6 * n_kept + 3], chi[..., -1]
 
 
-def _yaw_matrix(yaw: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
-def heading(root_rotation: np.ndarray) -> float:
-    """Yaw (radians, about +Y) of the root's facing direction (its +Z axis) in the ground plane."""
-    f = root_rotation[..., :, 2]
-    return float(np.arctan2(f[..., 0], f[..., 2]))
-
-
 def canonicalise(rotations: np.ndarray, root: np.ndarray):
     """Turn a cycle about +Y so the root's first heading faces +Z; zero the first root position.
 
     Returns (rotations, root translation relative to frame 0, the removed yaw, the first
     root position after turning (its height puts the body back on the ground)).
     """
-    yaw = heading(rotations[0, 0])
-    turn = _yaw_matrix(-yaw)
+    yaw = float(rotation_heading(rotations[0, 0]))  # the root's +Z axis on the ground plane
+    turn = yaw_matrix(-yaw)
     rot = rotations.copy()
     rot[:, 0] = turn @ rotations[:, 0]
     rel = (root - root[0]) @ turn.T

@@ -33,6 +33,7 @@ import warnings
 
 import numpy as np
 
+from mocapviz.heading import shortest_arc
 from mocapviz.ik import FEET, LEGS, foot_joints, global_to_local, two_bone_ik
 from mocapviz.kinematics import foot_contacts, forward_kinematics
 from mocapviz.metrics import foot_sliding, joint_position_errors
@@ -74,20 +75,6 @@ def _point(sk: Skeleton, rest: np.ndarray, name: str, end: bool) -> np.ndarray:
     return rest[j] + offs[0]
 
 
-def _min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest rotation R with R a parallel to b."""
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    v = np.cross(a, b)
-    c = float(np.dot(a, b))
-    if c < -1 + 1e-9:  # opposite: any perpendicular axis
-        axis = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
-        axis /= np.linalg.norm(axis)
-        return 2 * np.outer(axis, axis) - np.eye(3)
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1 + c)
-
-
 def _kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Rotation R minimising sum |R a_i - b_i|^2 over unit directions."""
     a = a / np.linalg.norm(a, axis=1, keepdims=True)
@@ -115,13 +102,13 @@ def rest_alignment(source: Skeleton, target: Skeleton, static=STATIC_JOINTS) -> 
         if not keep:
             Q[j] = parent_q
         elif len(keep) == 1:
-            Q[j] = _min_rotation(a[keep[0]], b[keep[0]])
+            Q[j] = shortest_arc(a[keep[0]], b[keep[0]])
         else:
             a_k, b_k = np.array([a[i] for i in keep]), np.array([b[i] for i in keep])
             b_unit = b_k / np.linalg.norm(b_k, axis=1, keepdims=True)
             sv = np.linalg.svd(b_unit, compute_uv=False)
             if sv[1] < 0.1 * sv[0]:  # source directions (nearly) collinear: twist undefined
-                Q[j] = _min_rotation(a_k.mean(0), b_k.mean(0))
+                Q[j] = shortest_arc(a_k.mean(0), b_k.mean(0))
             else:
                 Q[j] = _kabsch(a_k, b_k)
     return Q

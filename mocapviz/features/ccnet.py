@@ -20,7 +20,7 @@ integrates into the path. Control c_n = (c^s, c^d, c^t): skeleton configuration 
 and root-relative rest positions, 3J-2), the 12-D trajectory (root ground positions 10, 20,
 ..., 60 frames ahead in frame n's heading frame; past a clip's end the path is extrapolated
 at the clip's last 0.25 s mean velocity), and the motion-type one-hot over
-:data:`MOTION_TYPES`.
+:data:`mocapviz.features.motion_types.MOTION_TYPES`.
 """
 
 from __future__ import annotations
@@ -29,54 +29,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocapviz.features.motion_types import MOTION_TYPES
+from mocapviz.heading import (across_vector, facing_direction, from_heading_frame, heading_of, to_heading_frame,
+                              wrap_angle, yaw_matrix)
 from mocapviz.ik import FEET
 from mocapviz.kinematics import foot_contacts
 from mocapviz.motion import Motion
 from mocapviz.rotations import matrix_to_rotvec, rotvec_to_matrix
-from mocapviz.skeleton import Skeleton
+from mocapviz.skeleton import CCNET_25_JOINTS, Skeleton
 
 FPS = 60.0
 TRAJ_STEPS = (10, 20, 30, 40, 50, 60)  # frames ahead sampled by c^d (one second at 60 fps)
 ACROSS = (("LeftUpLeg", "RightUpLeg"), ("LeftShoulder", "RightShoulder"))
-
-# Merged motion types. HDM05's 11 classes keep their own type, except where a CMU clip shows
-# the same action: CMU run joins HDM05's jog (jogLeftCircle), CMU jump joins hopBothLegs,
-# CMU kick joins kickLFront. CMU walk is its own type (HDM05 has only sneaking steps), and
-# CMU punch is kept as a type for the paper's vocabulary though no clip here carries it.
-MOTION_TYPE_MERGE = {
-    ("cmu", "walk"): "walk",
-    ("cmu", "run"): "jog",
-    ("hdm05", "jogLeftCircle4StepsRstart"): "jog",
-    ("hdm05", "sneak2StepsLStart"): "sneak",
-    ("cmu", "jump"): "hop",
-    ("hdm05", "hopBothLegs1hops"): "hop",
-    ("cmu", "kick"): "kick",
-    ("hdm05", "kickLFront1Reps"): "kick",
-    ("cmu", "punch"): "punch",
-    ("hdm05", "depositFloorR"): "deposit_floor",
-    ("hdm05", "elbowToKnee1RepsLelbowStart"): "elbow_to_knee",
-    ("hdm05", "grabHighR"): "grab_high",
-    ("hdm05", "lieDownFloor"): "lie_down_floor",
-    ("hdm05", "rotateArmsBothBackward1Reps"): "rotate_arms",
-    ("hdm05", "squat1Reps"): "squat",
-    ("hdm05", "throwBasketball"): "throw_basketball",
-}
-MOTION_TYPES = ("walk", "jog", "sneak", "hop", "kick", "punch", "deposit_floor", "elbow_to_knee",
-                "grab_high", "lie_down_floor", "rotate_arms", "squat", "throw_basketball")
-
-
-def merged_type(source: str, motion_type: str) -> str:
-    try:
-        return MOTION_TYPE_MERGE[(source, motion_type)]
-    except KeyError:
-        raise KeyError(f"motion type {motion_type!r} of {source!r} has no merged CCNet type; "
-                       "add it to MOTION_TYPE_MERGE") from None
-
-
-def type_one_hot(name: str, types=MOTION_TYPES) -> np.ndarray:
-    out = np.zeros(len(types), dtype=np.float32)
-    out[list(types).index(name)] = 1.0
-    return out
 
 
 @dataclass(frozen=True)
@@ -101,7 +65,7 @@ class FeatureLayout:
         return 12 * self.n_joints + 6
 
     @property
-    def n_cont(self) -> int:
+    def n_continuous(self) -> int:
         """Continuous part of x (everything but the contact labels)."""
         return 12 * self.n_joints + 4
 
@@ -124,36 +88,10 @@ class FeatureLayout:
         return rows
 
 
-def _yaw(theta: np.ndarray) -> np.ndarray:
-    """Rotations (..., 3, 3) by ``theta`` about +Y."""
-    c, s = np.cos(theta), np.sin(theta)
-    out = np.zeros(np.shape(theta) + (3, 3))
-    out[..., 0, 0] = c
-    out[..., 0, 2] = s
-    out[..., 1, 1] = 1.0
-    out[..., 2, 0] = -s
-    out[..., 2, 2] = c
-    return out
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2 * np.pi) - np.pi
-
-
 def heading_angles(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """Facing angle per frame: forward = across x up, across = hips + shoulders (left - right).
-
-    The angle theta makes R_y(theta) map +Z onto the facing direction on the ground plane.
-    """
-    across = sum(positions[:, skeleton.index(a)] - positions[:, skeleton.index(b)] for a, b in ACROSS)
-    fwd = np.cross(across, np.array([0.0, 1.0, 0.0]))
-    return np.arctan2(fwd[:, 0], fwd[:, 2])
-
-
-def _to_frame(vec: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    """Express world vectors (F, ..., 3) in heading frames theta (F,): R_y(theta)^T v."""
-    r_t = np.swapaxes(_yaw(theta), -1, -2)
-    return np.einsum("fab,f...b->f...a", r_t, vec)
+    """Facing angle (F,) per frame of positions (F, J, 3): forward = across x up, with across =
+    hips + shoulders (left - right); R_y(theta) maps +Z onto the facing direction."""
+    return heading_of(facing_direction(across_vector(positions, skeleton, ACROSS)))
 
 
 def trajectory_control(root: np.ndarray, theta: np.ndarray, fps: float = FPS) -> np.ndarray:
@@ -168,7 +106,7 @@ def trajectory_control(root: np.ndarray, theta: np.ndarray, fps: float = FPS) ->
     for k in TRAJ_STEPS:
         d = path[np.arange(n) + k] - root
         d[:, 1] = 0.0
-        out.append(_to_frame(d, theta)[:, [0, 2]])
+        out.append(to_heading_frame(d, theta)[:, [0, 2]])
     return np.concatenate(out, axis=1).astype(np.float32)
 
 
@@ -193,14 +131,14 @@ def motion_features(motion: Motion, fps: float = FPS) -> ClipFeatures:
     pos = motion.positions()
     theta = heading_angles(pos, sk)
     rot = motion.rotations.copy()
-    rot[:, 0] = np.swapaxes(_yaw(theta), -1, -2) @ rot[:, 0]  # root relative to its heading
+    rot[:, 0] = np.swapaxes(yaw_matrix(theta), -1, -2) @ rot[:, 0]  # root relative to its heading
     rotvec = matrix_to_rotvec(rot)
     angvel = matrix_to_rotvec(np.swapaxes(rot[:-1], -1, -2) @ rot[1:]) * fps
     origin = motion.root_positions[:-1].copy()
     origin[:, 1] = 0.0
-    rel = _to_frame(pos[1:] - origin[:, None], theta[:-1])
-    vel = _to_frame(pos[1:] - pos[:-1], theta[:-1]) * fps
-    dtheta = _wrap(np.diff(theta)) * fps
+    rel = to_heading_frame(pos[1:] - origin[:, None], theta[:-1])
+    vel = to_heading_frame(pos[1:] - pos[:-1], theta[:-1]) * fps
+    dtheta = wrap_angle(np.diff(theta)) * fps
     root = np.stack([vel[:, 0, 0], vel[:, 0, 2], dtheta, motion.root_positions[1:, 1]], axis=1)
     feet = [[sk.index(n) for n in foot] for foot in FEET]
     contact = foot_contacts(pos, fps, feet)[1:].astype(np.float64)
@@ -222,7 +160,7 @@ def integrate_root(root_block: np.ndarray, start_root, start_heading: float, fps
     theta = start_heading + np.cumsum(root_block[:, 2]) / fps
     prev_theta = np.concatenate([[start_heading], theta[:-1]])
     local = np.stack([root_block[:, 0], np.zeros(len(root_block)), root_block[:, 1]], axis=1) / fps
-    step = np.einsum("fab,fb->fa", _yaw(prev_theta), local)
+    step = from_heading_frame(local, prev_theta)
     path = np.asarray(start_root, dtype=np.float64)[None] + np.cumsum(step, axis=0)
     path[:, 1] = root_block[:, 3]
     return path, theta
@@ -236,7 +174,7 @@ def features_to_motion(x: np.ndarray, skeleton: Skeleton, start_root=(0.0, 0.0, 
     x = np.asarray(x, dtype=np.float64)
     path, theta = integrate_root(x[:, b["root"]], start_root, start_heading, fps)
     rot = rotvec_to_matrix(x[:, b["rot"]].reshape(len(x), -1, 3))
-    rot[:, 0] = _yaw(theta) @ rot[:, 0]
+    rot[:, 0] = yaw_matrix(theta) @ rot[:, 0]
     meta = {"contacts": (x[:, b["contact"]] > 0.5)}
     return Motion(skeleton, rot, path, fps, name=name, meta=meta)
 
@@ -264,8 +202,8 @@ class Normaliser:
         return np.where(s < 1e-4, 1.0, s).astype(np.float32)  # constant channels stay unscaled
 
     @classmethod
-    def fit(cls, x: np.ndarray, skel: np.ndarray, traj: np.ndarray, n_cont: int) -> "Normaliser":
-        xc = x[:, :n_cont].astype(np.float64)
+    def fit(cls, x: np.ndarray, skel: np.ndarray, traj: np.ndarray, n_continuous: int) -> "Normaliser":
+        xc = x[:, :n_continuous].astype(np.float64)
         return cls(xc.mean(0).astype(np.float32), cls._std(xc), skel.mean(0).astype(np.float32),
                    cls._std(skel), traj.mean(0).astype(np.float32), cls._std(traj))
 
@@ -287,9 +225,6 @@ class Normaliser:
     def norm_traj(self, t):
         return ((np.asarray(t) - self.traj_mean) / self.traj_std).astype(np.float32)
 
-    def denorm_traj(self, t):
-        return np.asarray(t) * self.traj_std + self.traj_mean
-
     def state_dict(self) -> dict[str, np.ndarray]:
         return {k: np.asarray(v, dtype=np.float32) for k, v in self.__dict__.items()}
 
@@ -300,7 +235,6 @@ class Normaliser:
 
 def prepare_motion(motion: Motion, fps: float = FPS) -> Motion:
     """The 25 CCNet joints at ``fps`` (no-op parts are skipped)."""
-    from mocapviz.skeleton import CCNET_25_JOINTS
     if set(motion.skeleton.names) != set(CCNET_25_JOINTS):
         motion = motion.keep_joints(CCNET_25_JOINTS)
     if abs(motion.fps - fps) > 1e-6:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from dtaidistance import dtw_ndim
 
+from mocapviz.heading import across_vector, facing_direction
 from mocapviz.ik import LEGS
 from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
@@ -31,9 +32,7 @@ DTW_FPS = 30.0  # curves are compared at 30 fps (cycles of 0.3 s still have 9 sa
 def _forward_axis(motion: Motion) -> np.ndarray:
     """The rest pose's facing direction (unit, horizontal): (left hip - right hip) x up."""
     sk = motion.skeleton
-    rest = sk.rest_positions()
-    across = rest[sk.index("LeftUpLeg")] - rest[sk.index("RightUpLeg")]
-    fwd = np.cross(across, [0.0, 1.0, 0.0])
+    fwd = facing_direction(across_vector(sk.rest_positions(), sk, [("LeftUpLeg", "RightUpLeg")]))
     return fwd / np.linalg.norm(fwd)
 
 

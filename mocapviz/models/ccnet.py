@@ -1,6 +1,7 @@
 """CCNet (paper §3.2): encoder, separate residual blocks (SRBs), skip sum, decoder.
 
-Parameters are Conv1d weights (paper's layers); the forward pass works in (B, T, C) and runs the\nk=1 convs and the two taps of each k=2 dilated conv as matmuls (much faster than Conv1d on CPU).
+Parameters are Conv1d weights (paper's layers); the forward pass works in (B, T, C) and runs the
+k=1 convs and the two taps of each k=2 dilated conv as matmuls (much faster than Conv1d on CPU).
 Input index t carries the frame x_t and the controls c_{t+1} of the frame to predict; output
 index t is the Gaussian of x_{t+1} (mean, sigma), its foot-contact logits, and the predicted
 trajectory control c^d_{t+2} (mean, sigma), fed back when no user control is given.
@@ -9,84 +10,18 @@ SRB i (Fig. 2): z = DilatedCausalConv_{k=2,d_i}(h) + Conv1x1_s(c^s) + Conv1x1_d(
 g = tanh(z_a) * sigmoid(z_b) (WaveNet's gated unit, 2C channels split in two halves);
 h <- h + Conv1x1_res(g) (no bias); skip_i = Conv1x1_skip(g). The decoder sees sum_i skip_i (Eq. 4).
 
-:class:`CCNetStepper` is the same network run one frame at a time (the fast-WaveNet queue idea):
-each block keeps its last d_i inputs in a ring, so a new frame costs one small matmul chain per
-block instead of recomputing the receptive field.
+The same network run one frame at a time is in :mod:`mocapviz.models.steppers`; the config and
+its presets in :mod:`mocapviz.models.ccnet_config`.
 """
 
 from __future__ import annotations
 
-import json
-from dataclasses import asdict, dataclass, field, replace
-
-import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
-
-@dataclass(frozen=True)
-class CCNetConfig:
-    n_x: int = 306            # frame vector size (continuous + 2 contacts)
-    n_contact: int = 2
-    n_skel: int = 73          # c^s
-    n_traj: int = 12          # c^d
-    n_types: int = 13         # c^t
-    channels: int = 48        # residual channels C (the gated unit has 2C)
-    skip_channels: int = 64
-    dilations: tuple[int, ...] = (2,) * 20
-    kernel_size: int = 2
-    dropout: float = 0.5
-    sigma_min: float = 1e-4
-    skip_bias: bool = False   # 20 skip biases add up in Eq. 4; without them the decoder's ReLU stays alive more often
-
-    def __post_init__(self):
-        if self.kernel_size != 2:
-            raise ValueError("CCNet's SRBs use kernel size 2 (paper §3.2.2)")
-        if not self.dilations or min(self.dilations) < 1:
-            raise ValueError("dilations must be positive")
-        object.__setattr__(self, "dilations", tuple(int(d) for d in self.dilations))
-
-    @property
-    def n_cont(self) -> int:
-        return self.n_x - self.n_contact
-
-    @property
-    def receptive_field(self) -> int:
-        return receptive_field(self.dilations, self.kernel_size)
-
-    @property
-    def n_out(self) -> int:
-        return 2 * self.n_cont + self.n_contact + 2 * self.n_traj
-
-    def to_json(self) -> str:
-        return json.dumps(asdict(self), sort_keys=True)
-
-    @classmethod
-    def from_json(cls, s: str) -> "CCNetConfig":
-        d = json.loads(s)
-        d["dilations"] = tuple(d["dilations"])
-        return cls(**d)
-
-
-def receptive_field(dilations, kernel_size: int = 2) -> int:
-    """Eq. 3: CRL = (k - 1) + sum_i d_i (k - 1) frames."""
-    return (kernel_size - 1) + sum(int(d) * (kernel_size - 1) for d in dilations)
-
-
-# Named sizes. "paper": 20 SRBs with d = 2 (CRL 41); the paper's Fig. 2 channel counts are not
-# legible in our copy, so 256 residual/skip channels (a WaveNet-typical width) is our reading.
-SIZES = {
-    "quick": dict(channels=32, skip_channels=32),
-    "default": dict(channels=48, skip_channels=64),
-    "paper": dict(channels=256, skip_channels=256),
-}
-
-
-def make_config(size: str = "default", **overrides) -> CCNetConfig:
-    if size not in SIZES:
-        raise KeyError(f"unknown CCNet size {size!r}; choose from {sorted(SIZES)}")
-    return CCNetConfig(**{**SIZES[size], **overrides})
+from mocapviz.models.ccnet_config import CCNetConfig, make_config
+from mocapviz.models.protocol import register_model
 
 
 class SRB(nn.Module):
@@ -116,7 +51,14 @@ class SRB(nn.Module):
         return h + F.linear(g, self.res.weight[:, :, 0]), F.linear(g, self.skip.weight[:, :, 0], self.skip.bias)
 
 
+@register_model("ccnet")
 class CCNet(nn.Module):
+    """The network of paper §3.2, registered as "ccnet" (see :mod:`mocapviz.models.protocol`);
+    its loss is ``LOSSES["ccnet"]`` in :mod:`mocapviz.training.losses`."""
+
+    config_class = CCNetConfig
+    input_names = ("x", "skel", "traj", "types")
+
     def __init__(self, cfg: CCNetConfig):
         super().__init__()
         self.cfg = cfg
@@ -124,6 +66,21 @@ class CCNet(nn.Module):
         self.encoder = nn.Conv1d(cfg.n_x, cfg.channels, 1)
         self.blocks = nn.ModuleList(SRB(cfg, d) for d in cfg.dilations)
         self.decoder = nn.Conv1d(cfg.skip_channels, cfg.n_out, 1)
+
+    @classmethod
+    def config_for(cls, train_cfg, layout) -> CCNetConfig:
+        """The config of ``train_cfg`` (size preset, dilations, dropout) for a feature layout."""
+        return make_config(train_cfg.size, n_x=layout.n_x, n_skel=layout.n_skel, n_traj=layout.n_traj,
+                           n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout)
+
+    def stepper(self, batch: int = 1, backend: str = "torch"):
+        """Incremental engine over this model's current weights: "torch" (:class:`CCNetStepper`,
+        torch tensors in and out) or "numpy" (:class:`NumpyStepper`, numpy arrays)."""
+        from mocapviz.models.steppers import CCNetStepper, NumpyStepper
+        engines = {"torch": CCNetStepper, "numpy": NumpyStepper}
+        if backend not in engines:
+            raise ValueError(f"unknown backend {backend!r}; choose from {sorted(engines)}")
+        return engines[backend](self, batch)
 
     @staticmethod
     def _ctrl(c):
@@ -141,186 +98,10 @@ class CCNet(nn.Module):
         out = F.linear(torch.relu(skip), self.decoder.weight[:, :, 0], self.decoder.bias)
         return self.split_output(out)
 
-    def split_output(self, out) -> dict[str, torch.Tensor]:
+    def split_output(self, out: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Named parts of the raw decoder output (..., n_out), with sigma = max(exp(-s), sigma_min)."""
         c = self.cfg
-        n, k, d = c.n_cont, c.n_contact, c.n_traj
-        mean, s, contact, traj_mean, traj_s = torch.split(out, [n, n, k, d, d], dim=-1)
-        return dict(mean=mean, sigma=torch.exp(-s).clamp_min(c.sigma_min), contact_logits=contact,
-                    traj_mean=traj_mean, traj_sigma=torch.exp(-traj_s).clamp_min(c.sigma_min))
-
-
-@dataclass
-class _StepWeights:
-    enc_w: torch.Tensor
-    enc_b: torch.Tensor
-    ctrl_static_w: torch.Tensor   # (n_skel + n_types, nb * 2C)
-    ctrl_traj_w: torch.Tensor     # (n_traj, nb * 2C)
-    ctrl_b: torch.Tensor          # (nb * 2C,)
-    past_w: list = field(default_factory=list)
-    cur_w: list = field(default_factory=list)
-    res_w: list = field(default_factory=list)
-    skip_w: torch.Tensor = None   # (nb * C, S)
-    skip_b: torch.Tensor = None
-    dec_w: torch.Tensor = None
-    dec_b: torch.Tensor = None
-
-
-class CCNetStepper:
-    """Incremental CCNet: one frame per call, past block inputs kept in per-block rings.
-
-    Equal to ``CCNet.forward`` (eval mode) on the whole sequence, to float rounding. The gated
-    unit uses sigmoid(b) = (1 + tanh(b/2)) / 2 so one tanh serves both halves (the gate half
-    of the weights is pre-scaled by 1/2, and the 1/2 folded into the residual/skip weights);
-    skip projections of all blocks are one matmul on the concatenated gate outputs.
-    """
-
-    def __init__(self, model: CCNet, batch: int = 1, dtype=torch.float32):
-        """Copies the weights of ``model`` (retake a stepper after changing the model)."""
-        self.cfg = cfg = model.cfg
-        self.batch = batch
-        c = cfg.channels
-        with torch.no_grad():
-            gate_scale = torch.cat([torch.ones(c), torch.full((c,), 0.5)]).to(dtype)
-            st, tr, bias = [], [], []
-            w = _StepWeights(enc_w=model.encoder.weight[:, :, 0].T.to(dtype).contiguous(),
-                             enc_b=model.encoder.bias.to(dtype).clone(), ctrl_static_w=None,
-                             ctrl_traj_w=None, ctrl_b=None)
-            skip_ws, skip_b = [], 0
-            for blk in model.blocks:
-                cw = blk.conv.weight.to(dtype) * gate_scale[:, None, None]
-                w.past_w.append(cw[:, :, 0].T.contiguous())
-                w.cur_w.append(cw[:, :, 1].T.contiguous())
-                st.append(torch.cat([blk.ctrl_skel.weight[:, :, 0], blk.ctrl_type.weight[:, :, 0]], 1).to(dtype)
-                          * gate_scale[:, None])
-                tr.append(blk.ctrl_traj.weight[:, :, 0].to(dtype) * gate_scale[:, None])
-                bias.append(blk.conv.bias.to(dtype) * gate_scale)
-                w.res_w.append((0.5 * blk.res.weight[:, :, 0].T).to(dtype).contiguous())
-                skip_ws.append((0.5 * blk.skip.weight[:, :, 0].T).to(dtype))
-                if blk.skip.bias is not None:
-                    skip_b = skip_b + blk.skip.bias.to(dtype)
-            w.ctrl_static_w = torch.cat(st, 0).T.contiguous()
-            w.ctrl_traj_w = torch.cat(tr, 0).T.contiguous()
-            w.ctrl_b = torch.cat(bias)
-            w.skip_w = torch.cat(skip_ws, 0).contiguous()
-            w.skip_b = skip_b.clone() if torch.is_tensor(skip_b) else torch.zeros(cfg.skip_channels, dtype=dtype)
-            w.dec_w = model.decoder.weight[:, :, 0].T.to(dtype).contiguous()
-            w.dec_b = model.decoder.bias.to(dtype).clone()
-        self.w = w
-        self.dtype = dtype
-        self._static = None
-        self.reset()
-
-    def reset(self):
-        """Forget the past (zeros, as the causal padding of the full model)."""
-        nb, r = len(self.cfg.dilations), max(self.cfg.dilations)
-        # hist[t % R, i] holds block i's input at frame t; block i reads frame t - d_i.
-        self.hist = torch.zeros(r, nb, self.batch, self.cfg.channels, dtype=self.dtype)
-        self._past_index = [torch.tensor([(p - d) % r for d in self.cfg.dilations]) for p in range(r)]
-        self._blocks = torch.arange(nb)
-        self._past_w = torch.stack(self.w.past_w)
-        self._gates = torch.zeros(nb, self.batch, self.cfg.channels, dtype=self.dtype)
-        self._skip_w = self.w.skip_w.view(nb, self.cfg.channels, -1)
-        self._skip_b = (self.w.skip_b / nb).expand(nb, 1, -1)
-        self.t = 0
-
-    def set_static(self, skel: torch.Tensor, types: torch.Tensor):
-        """Skeleton (B, n_skel) and type one-hot (B, n_types): their projection is cached."""
-        with torch.inference_mode():
-            self._static = torch.addmm(self.w.ctrl_b, torch.cat([skel, types], 1).to(self.dtype),
-                                       self.w.ctrl_static_w)
-
-    def step(self, x: torch.Tensor, traj: torch.Tensor) -> torch.Tensor:
-        """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}; returns the raw decoder
-        output (B, n_out) for frame t+1 (split it with ``CCNet.split_output``)."""
-        w = self.w
-        c = self.cfg.channels
-        nb = len(self.rings_shape)
-        r = self.hist.shape[0]
-        past = self.hist[self._past_index[self.t % r], self._blocks]          # (nb, B, C), a copy
-        cur = self.hist[self.t % r]                # block inputs of this frame are written here
-        torch.addmm(w.enc_b, x, w.enc_w, out=cur[0]).relu_()
-        cz = torch.addmm(self._static, traj, w.ctrl_traj_w)
-        pre = torch.baddbmm(cz.view(self.batch, nb, 2 * c).transpose(0, 1), past, self._past_w)
-        gates = self._gates
-        for i in range(nb):
-            z = pre[i].addmm_(cur[i], w.cur_w[i]).tanh_()
-            a, b = z.chunk(2, dim=1)
-            torch.addcmul(a, a, b, out=gates[i])   # 2 tanh(a) sigmoid(b); the 1/2 is in res/skip
-            if i + 1 < nb:                          # the last block's residual feeds nothing
-                torch.addmm(cur[i], gates[i], w.res_w[i], out=cur[i + 1])
-        self.t += 1
-        skip = torch.baddbmm(self._skip_b, gates, self._skip_w).sum(0).relu_()
-        return torch.addmm(w.dec_b, skip, w.dec_w)
-
-    @property
-    def rings_shape(self):
-        return self.cfg.dilations
-
-
-class NumpyStepper:
-    """The same incremental step on numpy arrays: for one character the per-call overhead of
-    numpy is a fraction of torch's, and a frame is ~140 tiny calls. Same interface and results
-    (to float rounding) as :class:`CCNetStepper`, with numpy arrays in and out."""
-
-    def __init__(self, model: CCNet, batch: int = 1):
-        ref = CCNetStepper(model, batch)
-        w = ref.w
-        f = lambda t: t.detach().numpy().astype(np.float32).copy()  # noqa: E731
-        self.cfg, self.batch = ref.cfg, batch
-        self.enc_w, self.enc_b = f(w.enc_w), f(w.enc_b)
-        self.ctrl_static_w, self.ctrl_traj_w, self.ctrl_b = f(w.ctrl_static_w), f(w.ctrl_traj_w), f(w.ctrl_b)
-        self.past_w = np.stack([f(x) for x in w.past_w])
-        self.cur_w = [f(x) for x in w.cur_w]
-        self.res_w = [f(x) for x in w.res_w]
-        self.skip_w, self.skip_b, self.dec_w, self.dec_b = f(w.skip_w), f(w.skip_b), f(w.dec_w), f(w.dec_b)
-        self._static = None
-        self.reset()
-
-    def reset(self):
-        c, dil = self.cfg.channels, self.cfg.dilations
-        zero = np.zeros((self.batch, c), dtype=np.float32)
-        self.rings = [[zero] * d for d in dil]
-        self._g = np.zeros((self.batch, len(dil) * c), dtype=np.float32)
-        self.t = 0
-
-    def set_static(self, skel, types):
-        st = np.concatenate([np.asarray(skel, np.float32), np.asarray(types, np.float32)], 1)
-        self._static = st @ self.ctrl_static_w + self.ctrl_b
-
-    def step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:
-        c, nb, t = self.cfg.channels, len(self.rings), self.t
-        h = x @ self.enc_w
-        h += self.enc_b
-        np.maximum(h, 0, out=h)
-        cz = traj @ self.ctrl_traj_w
-        cz += self._static
-        slots = [t % len(r) for r in self.rings]
-        past = np.stack([r[s] for r, s in zip(self.rings, slots)])          # (nb, B, C)
-        pre = np.matmul(past, self.past_w)                                  # (nb, B, 2C)
-        pre += cz.reshape(self.batch, nb, 2 * c).transpose(1, 0, 2)
-        g_all = self._g
-        for i in range(nb):
-            z = h @ self.cur_w[i]
-            z += pre[i]
-            np.tanh(z, out=z)
-            a = z[:, :c]
-            g = g_all[:, i * c:(i + 1) * c]
-            np.multiply(a, z[:, c:], out=g)
-            g += a
-            self.rings[i][slots[i]] = h
-            h = h + g @ self.res_w[i]
-        self.t = t + 1
-        skip = g_all @ self.skip_w
-        skip += self.skip_b
-        np.maximum(skip, 0, out=skip)
-        out = skip @ self.dec_w
-        out += self.dec_b
-        return out
-
-
-def count_parameters(model: nn.Module) -> int:
-    return sum(p.numel() for p in model.parameters())
-
-
-def with_sizes(cfg: CCNetConfig, **kw) -> CCNetConfig:
-    return replace(cfg, **kw)
+        p = {k: out[..., sl] for k, sl in c.output_slices.items()}
+        return dict(mean=p["mean"], sigma=torch.exp(-p["s"]).clamp_min(c.sigma_min),
+                    contact_logits=p["contact_logits"], traj_mean=p["traj_mean"],
+                    traj_sigma=torch.exp(-p["traj_s"]).clamp_min(c.sigma_min))

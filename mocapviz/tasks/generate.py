@@ -20,9 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, Normaliser, _yaw, features_to_motion
+from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, Normaliser, features_to_motion
+from mocapviz.heading import from_heading_frame_xz, to_heading_frame_xz
 from mocapviz.ik import remove_foot_sliding
-from mocapviz.models.ccnet import CCNet, CCNetStepper, NumpyStepper
+from mocapviz.models.ccnet import CCNet
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
 
@@ -44,18 +45,15 @@ def path_controls(path_xz: np.ndarray, n: int, root_xz: np.ndarray, heading: np.
     """c^d (B, 12) at frame n: path points n+10..n+60 relative to the root, in its heading frame."""
     idx = np.minimum(n + np.asarray(TRAJ_STEPS), path_xz.shape[1] - 1)
     d = path_xz[:, idx] - root_xz[:, None]                     # (B, 6, 2) world X, Z
-    c, s = np.cos(heading)[:, None], np.sin(heading)[:, None]
-    # R_y(theta)^T (dx, 0, dz): x' = c dx - s dz, z' = s dx + c dz
-    local = np.stack([c * d[..., 0] - s * d[..., 1], s * d[..., 0] + c * d[..., 1]], axis=-1)
-    return local.reshape(len(d), -1)
+    return to_heading_frame_xz(d, heading[:, None]).reshape(len(d), -1)
 
 
 class Generator:
     """Batched autoregressive generation with the incremental stepper.
 
-    ``backend``: "numpy" (:class:`NumpyStepper`, fastest for a few characters: a frame is ~140
-    tiny calls and numpy's per-call cost is a fraction of torch's) or "torch"
-    (:class:`CCNetStepper`, better for large batches); "auto" picks numpy up to 8 characters.
+    ``backend``: "numpy" (fastest for a few characters: a frame is ~140 tiny calls and numpy's
+    per-call cost is a fraction of torch's) or "torch" (better for large batches), the engines of
+    :mod:`mocapviz.models.steppers` made by ``model.stepper``; "auto" picks numpy up to 8 characters.
     """
 
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
@@ -67,29 +65,27 @@ class Generator:
         self.rng = np.random.default_rng(seed)
         self.cfg = model.cfg
         self.layout = FeatureLayout((self.cfg.n_x - 6) // 12, self.cfg.n_types)
+        self.parts = self.cfg.output_slices  # where mean, s, contact logits, c^d sit in a raw output
         self.backend = ("numpy" if batch <= 8 else "torch") if backend == "auto" else backend
+        self.stepper = model.stepper(batch, self.backend)
         if self.backend == "numpy":
-            self.stepper = NumpyStepper(model, batch)
             self._step = self.stepper.step
-        elif self.backend == "torch":
-            self.stepper = CCNetStepper(model, batch)
-            self._step = lambda x, c: self.stepper.step(torch.from_numpy(x), torch.from_numpy(c)).numpy()
         else:
-            raise ValueError(f"unknown backend {backend!r}")
+            self._step = lambda x, c: self.stepper.step(torch.from_numpy(x), torch.from_numpy(c)).numpy()
         self.keep_outputs = False     # keep every raw step output (tests / benchmark)
         self.raw_outputs: list[np.ndarray] = []
 
     def _write_next(self, raw: np.ndarray, dest: np.ndarray) -> np.ndarray:
         """Frame t+1 into ``dest`` (B, n_x): the mean (or a Gaussian sample) and the contact
         labels (logit > 0); returns the predicted c^d (normalised), a view of ``raw``."""
-        n, k = self.cfg.n_cont, self.cfg.n_contact
+        n, out = self.cfg.n_continuous, self.parts
         if self.sample:
-            sigma = np.maximum(np.exp(-raw[:, n:2 * n]), self.cfg.sigma_min)
-            dest[:, :n] = raw[:, :n] + sigma * self.rng.standard_normal(sigma.shape, dtype=np.float32)
+            sigma = np.maximum(np.exp(-raw[:, out["s"]]), self.cfg.sigma_min)
+            dest[:, :n] = raw[:, out["mean"]] + sigma * self.rng.standard_normal(sigma.shape, dtype=np.float32)
         else:
-            dest[:, :n] = raw[:, :n]
-        np.greater(raw[:, 2 * n:2 * n + k], 0, out=dest[:, n:], casting="unsafe")
-        return raw[:, 2 * n + k:2 * n + k + self.cfg.n_traj]
+            dest[:, :n] = raw[:, out["mean"]]
+        np.greater(raw[:, out["contact_logits"]], 0, out=dest[:, n:], casting="unsafe")
+        return raw[:, out["traj_mean"]]
 
     def run(self, seed_x: np.ndarray, skel: np.ndarray, types: np.ndarray, n_frames: int,
             traj: np.ndarray | None = None, path: np.ndarray | None = None,
@@ -128,16 +124,14 @@ class Generator:
             root_xz = np.asarray(start_root, dtype=np.float64)[:, [0, 2]].copy()
             heading = np.asarray(start_heading, dtype=np.float64).copy()
         pred_traj = np.zeros((b, self.cfg.n_traj), dtype=np.float32)
-        n, k = self.cfg.n_cont, self.cfg.n_contact
         for t in tqdm(range(total - 1), desc="generate", disable=not progress):
             if per_frame_types and not np.array_equal(types[:, t + 1], cur_type):
                 cur_type = types[:, t + 1]
                 set_static(skel_n, cur_type)
             x_t = xs[:, t]
             if path is not None:  # integrate the root of frame t (raw units) for c^d_{t+1}
-                r = x_t[:, root_b] * norm.x_std[root_b] + norm.x_mean[root_b]
-                c, sn = np.cos(heading), np.sin(heading)
-                root_xz += np.stack([c * r[:, 0] + sn * r[:, 1], -sn * r[:, 0] + c * r[:, 1]], 1) / FPS
+                r = x_t[:, root_b] * norm.x_std[root_b] + norm.x_mean[root_b]  # (vx, vz, yaw rate, height)
+                root_xz += from_heading_frame_xz(r[:, :2], heading) / FPS
                 heading += r[:, 2] / FPS
             if t + 1 < s and seed_n is not None:
                 c_next = seed_n[:, t + 1]
@@ -153,36 +147,8 @@ class Generator:
             if t + 1 >= s:
                 pred_traj = self._write_next(raw, xs[:, t + 1]).copy()
             else:
-                pred_traj = raw[:, 2 * n + k:2 * n + k + self.cfg.n_traj].copy()
+                pred_traj = raw[:, self.parts["traj_mean"]].copy()
         return Generated(norm.denorm_x(xs), s, xs)
-
-
-@torch.inference_mode()
-def naive_step_outputs(model: CCNet, x: torch.Tensor, skel, traj, types, window: int) -> torch.Tensor:
-    """Reference: the last output for a (B, T) input, recomputing the last ``window`` frames."""
-    out = model(x[:, -window:], skel, traj[:, -window:], types)
-    return torch.cat([out["mean"], -torch.log(out["sigma"]), out["contact_logits"], out["traj_mean"]], -1)[:, -1]
-
-
-def clip_types(type_index: int, n_types: int, batch: int = 1) -> np.ndarray:
-    t = np.zeros((batch, n_types), dtype=np.float32)
-    t[:, type_index] = 1.0
-    return t
-
-
-def straight_path(n: int, speed: float, start_xz=(0.0, 0.0), heading: float = 0.0) -> np.ndarray:
-    """(n, 2) world X/Z of a straight line at ``speed`` m/s from ``start_xz`` along ``heading``."""
-    d = np.array([np.sin(heading), np.cos(heading)])
-    return np.asarray(start_xz)[None] + (np.arange(n) / FPS * speed)[:, None] * d[None]
-
-
-def circle_path(n: int, speed: float, radius: float, start_xz=(0.0, 0.0), heading: float = 0.0) -> np.ndarray:
-    """(n, 2) a circle of ``radius`` turning left, walked at ``speed`` m/s from ``start_xz``."""
-    ang = np.arange(n) / FPS * speed / radius
-    local = np.stack([radius * (1 - np.cos(ang)), radius * np.sin(ang)], axis=1)  # x right?, z forward
-    rot = _yaw(np.array(heading))
-    world = local[:, 0:1] * rot[[0, 2], 0][None] + local[:, 1:2] * rot[[0, 2], 2][None]
-    return np.asarray(start_xz)[None] + world
 
 
 def freezing_share(x: np.ndarray, layout: FeatureLayout, train_mean_speed: float, fraction: float = 0.05) -> float:
@@ -191,24 +157,3 @@ def freezing_share(x: np.ndarray, layout: FeatureLayout, train_mean_speed: float
     x = np.asarray(x)
     speed = np.linalg.norm(x[..., layout.x_blocks["vel"]].reshape(x.shape[:-1] + (-1, 3)), axis=-1).mean(-1)
     return float((speed < fraction * train_mean_speed).mean())
-
-
-@torch.inference_mode()
-def full_recompute_outputs(model: CCNet, norm: Normaliser, gen: Generated, skel: np.ndarray, types: np.ndarray,
-                           traj_n: np.ndarray) -> np.ndarray:
-    """(mean, contact logits, c^d mean) of one full forward pass over a generated sequence, for
-    the equality check: inputs x_0..x_{T-2} with the controls the generator used (traj_n
-    (B, T-1, 12), normalised)."""
-    x = torch.from_numpy(gen.x_norm[:, :-1])
-    out = model(x, torch.from_numpy(norm.norm_skel(skel)), torch.from_numpy(np.asarray(traj_n, np.float32)),
-                torch.from_numpy(np.asarray(types, np.float32)))
-    return torch.cat([out["mean"], out["contact_logits"], out["traj_mean"]], -1).numpy()
-
-
-def step_outputs(gen_raw: list[np.ndarray], cfg) -> tuple[np.ndarray, np.ndarray]:
-    """Stack a generator's kept raw outputs into (mean, contact logits, c^d mean) (B, T-1, .),
-    and the c^d (normalised) each step predicted (B, T-1, 12)."""
-    raw = np.stack(gen_raw, 1)
-    n, k, d = cfg.n_cont, cfg.n_contact, cfg.n_traj
-    traj = raw[..., 2 * n + k:2 * n + k + d]
-    return np.concatenate([raw[..., :n], raw[..., 2 * n:2 * n + k], traj], -1), traj

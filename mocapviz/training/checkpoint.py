@@ -1,27 +1,28 @@
-"""CCNet checkpoints: one safetensors file rebuilds model + normaliser (config in metadata).
+"""Checkpoints: one safetensors file rebuilds model + normaliser (config in metadata).
 
 Tensors: ``model.*`` (state dict), ``norm.*`` (normalisation statistics), optionally ``optim.*``
-(RMSprop state, for exact resume). Metadata (strings): ``model_config`` (JSON of
-:class:`CCNetConfig`), ``train_config``, ``dataset`` (JSON: hash, test subject, joint names,
-motion types, fps, training mean joint speed), ``step``, ``format``. Writes are atomic.
+(optimizer state, for exact resume). Metadata (strings): ``model`` (the registered model name,
+:mod:`mocapviz.models.protocol`), ``model_config`` (JSON of the model's config), ``train_config``,
+``dataset`` (JSON: hash, test subject, joint names, motion types, fps, training mean joint speed),
+``step``, ``format``. Files of format ``mocapviz.ccnet.v1`` (before the model registry) have no
+``model`` key and hold a CCNet. Writes are atomic.
 """
 
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
-import numpy as np
 import torch
 from safetensors import safe_open
 from safetensors.torch import save_file
 
-from mocapviz.features.ccnet import Normaliser
 from mocapviz.atomic import atomic_path
-from mocapviz.models.ccnet import CCNet, CCNetConfig
+from mocapviz.features.ccnet import Normaliser
+from mocapviz.models.protocol import build_model
 
-FORMAT = "mocapviz.ccnet.v1"
+FORMAT = "mocapviz.checkpoint.v2"
+LEGACY_FORMATS = {"mocapviz.ccnet.v1": "ccnet"}  # format -> the model every such file holds
 
 
 def _optim_tensors(opt: torch.optim.Optimizer) -> tuple[dict, str]:
@@ -33,14 +34,15 @@ def _optim_tensors(opt: torch.optim.Optimizer) -> tuple[dict, str]:
     return tensors, json.dumps(sd["param_groups"])
 
 
-def save_checkpoint(path, model: CCNet, normaliser: Normaliser, meta: dict | None = None,
+def save_checkpoint(path, model: torch.nn.Module, normaliser: Normaliser, meta: dict | None = None,
                     optimizer: torch.optim.Optimizer | None = None) -> Path:
     path = Path(path)
     tensors = {f"model.{k}": v.detach().contiguous().clone() for k, v in model.state_dict().items()}
     tensors.update({f"norm.{k}": torch.from_numpy(v) for k, v in normaliser.state_dict().items()})
-    metadata = {"format": FORMAT, "model_config": model.cfg.to_json()}
+    metadata = {"format": FORMAT, "model": model.name, "model_config": model.cfg.to_json()}
     for k, v in (meta or {}).items():
-        metadata[k] = v if isinstance(v, str) else json.dumps(v)
+        if k not in metadata:  # format, model and its config describe this file, not the source's
+            metadata[k] = v if isinstance(v, str) else json.dumps(v)
     if optimizer is not None:
         t, groups = _optim_tensors(optimizer)
         tensors.update(t)
@@ -54,20 +56,22 @@ def read_checkpoint(path) -> tuple[dict[str, torch.Tensor], dict[str, str]]:
     with safe_open(str(path), framework="pt") as f:
         meta = f.metadata() or {}
         tensors = {k: f.get_tensor(k) for k in f.keys()}
-    if meta.get("format") != FORMAT:
-        raise ValueError(f"{path}: not a CCNet checkpoint (format {meta.get('format')!r})")
+    fmt = meta.get("format")
+    if fmt in LEGACY_FORMATS:
+        meta = {**meta, "model": LEGACY_FORMATS[fmt]}
+    elif fmt != FORMAT:
+        raise ValueError(f"{path}: not a mocapviz checkpoint (format {fmt!r})")
     return tensors, meta
 
 
-def load_checkpoint(path, optimizer: torch.optim.Optimizer | None = None, model: CCNet | None = None):
+def load_checkpoint(path, optimizer: torch.optim.Optimizer | None = None, model: torch.nn.Module | None = None):
     """(model in eval mode, normaliser, metadata dict with JSON values decoded).
 
     Pass ``model`` and ``optimizer`` to restore into existing objects (for resuming).
     """
     tensors, meta = read_checkpoint(path)
-    cfg = CCNetConfig.from_json(meta["model_config"])
     if model is None:
-        model = CCNet(cfg)
+        model = build_model(meta["model"], meta["model_config"])
     model.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("model.")})
     norm = Normaliser.from_state_dict({k[5:]: v.numpy() for k, v in tensors.items() if k.startswith("norm.")})
     if optimizer is not None:
@@ -87,11 +91,3 @@ def load_checkpoint(path, optimizer: torch.optim.Optimizer | None = None, model:
             decoded[k] = v
     model.eval()
     return model, norm, decoded
-
-
-def file_size_mb(path) -> float:
-    return os.path.getsize(path) / 2 ** 20
-
-
-def normaliser_equal(a: Normaliser, b: Normaliser) -> bool:
-    return all(np.array_equal(getattr(a, k), getattr(b, k)) for k in a.__dataclass_fields__)

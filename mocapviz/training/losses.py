@@ -16,6 +16,11 @@ L = L_G + lambda1 L_s + lambda2 L_f + lambda3 L_d with lambda = (10, 2, 1):
 - L_f (Eq. 9): binary cross-entropy of the two foot-contact labels (from logits).
 
 L_G, L_d and L_f are summed over their channels and averaged over frames and batch ("per frame").
+In the logs L_d is ``traj_nll`` (the NLL of the predicted trajectory control c^d).
+
+:data:`LOSSES` maps a registered model name (:mod:`mocapviz.models.protocol`) to its training
+loss ``fn(out, batch, model_cfg, lambdas) -> dict`` (the total under ``"loss"``): the trainer
+looks the loss up by the model's name, so a new model adds its loss here, not to the trainer.
 """
 
 from __future__ import annotations
@@ -42,14 +47,23 @@ def smoothness(mean: torch.Tensor) -> torch.Tensor:
     return (d2 ** 2).mean()
 
 
-def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_cont: int,
+def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_continuous: int,
                lambdas=LAMBDAS) -> dict[str, torch.Tensor]:
-    """out: the model's dict; target_x (B, T, n_x) = x_{t+1}; target_traj (B, T, 12) = c^d_{t+2}."""
+    """out: the model's dict; target_x (B, T, n_x) = x_{t+1}; target_traj (B, T, 12) = c^d_{t+2};
+    the first ``n_continuous`` channels of x are Gaussian, the rest contact labels."""
     l1, l2, l3 = lambdas
-    nll = gaussian_nll(target_x[..., :n_cont], out["mean"], out["sigma"]).sum(-1).mean()
-    direction = gaussian_nll(target_traj, out["traj_mean"], out["traj_sigma"]).sum(-1).mean()
-    contact = F.binary_cross_entropy_with_logits(out["contact_logits"], target_x[..., n_cont:],
+    nll = gaussian_nll(target_x[..., :n_continuous], out["mean"], out["sigma"]).sum(-1).mean()
+    traj_nll = gaussian_nll(target_traj, out["traj_mean"], out["traj_sigma"]).sum(-1).mean()
+    contact = F.binary_cross_entropy_with_logits(out["contact_logits"], target_x[..., n_continuous:],
                                                  reduction="none").sum(-1).mean()
     smooth = smoothness(out["mean"])
-    total = nll + l1 * smooth + l2 * contact + l3 * direction
-    return dict(loss=total, nll=nll, smooth=smooth, contact=contact, direction=direction)
+    total = nll + l1 * smooth + l2 * contact + l3 * traj_nll
+    return dict(loss=total, nll=nll, smooth=smooth, contact=contact, traj_nll=traj_nll)
+
+
+def ccnet_window_loss(out: dict, batch: dict, cfg, lambdas=LAMBDAS) -> dict[str, torch.Tensor]:
+    """:func:`ccnet_loss` on a training batch of :class:`mocapviz.training.windows.WindowData`."""
+    return ccnet_loss(out, batch["target_x"], batch["target_traj"], cfg.n_continuous, lambdas)
+
+
+LOSSES = {"ccnet": ccnet_window_loss}

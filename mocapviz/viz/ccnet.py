@@ -8,7 +8,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, _yaw, integrate_root
+from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, integrate_root
+from mocapviz.heading import yaw_matrix
 from mocapviz.viz.figures import save_figure
 
 
@@ -25,7 +26,7 @@ def plot_controls(x: np.ndarray, traj: np.ndarray, start_root, start_heading: fl
     cmap = plt.get_cmap("viridis")
     for n in range(0, len(x), every):
         local = traj[n].reshape(-1, 2)
-        world = np.einsum("ab,kb->ka", _yaw(theta[n])[[0, 2]][:, [0, 2]], local) + root[n, [0, 2]]
+        world = np.einsum("ab,kb->ka", yaw_matrix(theta[n])[[0, 2]][:, [0, 2]], local) + root[n, [0, 2]]
         ax0.plot(*np.vstack([root[n, [0, 2]], world]).T, "o-", ms=3, lw=0.8, color=cmap(n / len(x)))
         fwd = np.array([np.sin(theta[n]), np.cos(theta[n])]) * 0.15
         ax0.arrow(root[n, 0], root[n, 2], *fwd, head_width=0.04, color="crimson")

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocapviz.heading import shortest_arc
 from mocapviz.ik import LEGS
 from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
@@ -67,17 +68,6 @@ def _chain_joint(sk: Skeleton, *candidates: str) -> int | None:
     return None
 
 
-def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Rotation matrix turning direction ``a`` onto direction ``b`` (shortest arc)."""
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    axis = np.cross(a, b)
-    s, c = np.linalg.norm(axis), float(np.dot(a, b))
-    if s < 1e-12:
-        return np.eye(3)
-    return rotvec_to_matrix(axis / s * np.arctan2(s, c))
-
-
 def standing_pose(skeleton: Skeleton, arm_drop_deg: float = 65.0) -> Motion:
     """A one-frame standing pose built from the rest pose, feet on the floor (y = 0).
 
@@ -94,7 +84,7 @@ def standing_pose(skeleton: Skeleton, arm_drop_deg: float = 65.0) -> Motion:
         if None in (j_hip, j_knee, j_ankle):
             continue
         thigh = sk.offsets[j_knee] + sk.offsets[j_ankle]  # hip -> ankle in the hip's frame
-        rot[0, j_hip] = _align(thigh, -UP)
+        rot[0, j_hip] = shortest_arc(thigh, -UP)
     for shoulder, elbow, sign in (("LeftArm", "LeftForeArm", -1.0), ("RightArm", "RightForeArm", 1.0)):
         j_sh, j_el = _chain_joint(sk, shoulder), _chain_joint(sk, elbow)
         if None in (j_sh, j_el) or arm_drop_deg == 0:

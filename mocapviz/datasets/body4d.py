@@ -1,0 +1,76 @@
+"""The 4D body-motion dataset container: one chi = [Theta, Gamma, Phi] and beta per gait cycle,
+with the per-subject shape fits and per-clip retargeting numbers, meshes on demand and a
+``.npz`` save/load.
+
+Built (shape fits, retargeting, DTW cycles) and cached by :mod:`data_prep.body4d_dataset`.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from io import StringIO
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mocapviz.atomic import atomic_path
+
+
+def _frame_bytes(df: pd.DataFrame) -> np.ndarray:
+    return np.frombuffer(df.to_json(orient="split", double_precision=15).encode(), dtype=np.uint8)
+
+
+@dataclass
+class Body4DDataset:
+    """chi (N, n_frames, 6K+4) float32, beta (N, 6), one row per cycle in ``cycles``,
+    per-subject shape fits in ``subjects``, per-clip retargeting numbers in ``clips``."""
+
+    chi: np.ndarray
+    beta: np.ndarray
+    cycles: pd.DataFrame
+    subjects: pd.DataFrame
+    clips: pd.DataFrame
+    meta: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.chi)
+
+    @property
+    def gamma_scale(self) -> np.ndarray:
+        return np.asarray(self.meta["gamma_scale"])
+
+    def mesh(self, i: int, body=None, on_ground: bool = True):
+        """Vertices (n_frames, V, 3) of cycle i (metres, Y up), from chi and beta.
+
+        ``on_ground`` puts the first frame's root back at its height (the Hips above the
+        floor), facing +Z at the origin; otherwise the first root is at the origin."""
+        from mocapviz.bodies.anny_model import body_model
+        from mocapviz.bodies.representation import mesh_chi
+
+        body = body or body_model()
+        root0 = (0.0, float(self.cycles["root0_y"].iloc[i]), 0.0) if on_ground else (0.0, 0.0, 0.0)
+        return mesh_chi(body, self.beta[i], self.chi[i], self.gamma_scale, root0)
+
+    def counts(self) -> pd.DataFrame:
+        """Cycles per motion type (rows) and subject (columns), with totals."""
+        c = self.cycles[~self.cycles["mirrored"]]
+        return pd.crosstab(c["type"], c["subject"], margins=True, margins_name="total")
+
+    def save(self, path: str | Path) -> None:
+        """One ``.npz`` (tables and meta as JSON bytes), written atomically."""
+        arrays = dict(chi=self.chi, beta=self.beta, cycles=_frame_bytes(self.cycles),
+                      subjects=_frame_bytes(self.subjects), clips=_frame_bytes(self.clips),
+                      meta=np.frombuffer(json.dumps(self.meta).encode(), dtype=np.uint8))
+        with atomic_path(Path(path), suffix=".tmp.npz") as tmp:
+            np.savez(tmp, **arrays)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Body4DDataset":
+        def frame(z, k):
+            return pd.read_json(StringIO(z[k].tobytes().decode()), orient="split", dtype=False)
+
+        with np.load(path) as z:
+            return cls(z["chi"], z["beta"], frame(z, "cycles"), frame(z, "subjects"), frame(z, "clips"),
+                       json.loads(z["meta"].tobytes().decode()))

@@ -1,0 +1,83 @@
+"""CCNet's configuration (sizes of x_n, c_n and the network) and the named presets."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+
+
+@dataclass(frozen=True)
+class CCNetConfig:
+    n_x: int = 306            # frame vector size (continuous + 2 contacts)
+    n_contact: int = 2
+    n_skel: int = 73          # c^s
+    n_traj: int = 12          # c^d
+    n_types: int = 13         # c^t
+    channels: int = 48        # residual channels C (the gated unit has 2C)
+    skip_channels: int = 64
+    dilations: tuple[int, ...] = (2,) * 20
+    kernel_size: int = 2
+    dropout: float = 0.5
+    sigma_min: float = 1e-4
+    skip_bias: bool = False   # 20 skip biases add up in Eq. 4; without them the decoder's ReLU stays alive more often
+
+    def __post_init__(self):
+        if self.kernel_size != 2:
+            raise ValueError("CCNet's SRBs use kernel size 2 (paper §3.2.2)")
+        if not self.dilations or min(self.dilations) < 1:
+            raise ValueError("dilations must be positive")
+        object.__setattr__(self, "dilations", tuple(int(d) for d in self.dilations))
+
+    @property
+    def n_continuous(self) -> int:
+        """Channels of x modelled by the Gaussian: all but the contact labels."""
+        return self.n_x - self.n_contact
+
+    @property
+    def receptive_field(self) -> int:
+        return receptive_field(self.dilations, self.kernel_size)
+
+    @property
+    def output_slices(self) -> dict[str, slice]:
+        """Where each part sits in the decoder's raw output (..., n_out): the Gaussian mean and
+        its s (sigma = exp(-s)) of x_{t+1}'s continuous part, the contact logits, and the mean
+        and s of the predicted trajectory control c^d_{t+2}. The one home of this layout."""
+        n, k, d = self.n_continuous, self.n_contact, self.n_traj
+        out, at = {}, 0
+        for name, size in (("mean", n), ("s", n), ("contact_logits", k), ("traj_mean", d), ("traj_s", d)):
+            out[name] = slice(at, at + size)
+            at += size
+        return out
+
+    @property
+    def n_out(self) -> int:
+        return 2 * self.n_continuous + self.n_contact + 2 * self.n_traj
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), sort_keys=True)
+
+    @classmethod
+    def from_json(cls, s: str) -> "CCNetConfig":
+        d = json.loads(s)
+        d["dilations"] = tuple(d["dilations"])
+        return cls(**d)
+
+
+def receptive_field(dilations, kernel_size: int = 2) -> int:
+    """Eq. 3: CRL = (k - 1) + sum_i d_i (k - 1) frames."""
+    return (kernel_size - 1) + sum(int(d) * (kernel_size - 1) for d in dilations)
+
+
+# Named sizes. "paper": 20 SRBs with d = 2 (CRL 41); the paper's Fig. 2 channel counts are not
+# legible in our copy, so 256 residual/skip channels (a WaveNet-typical width) is our reading.
+SIZES = {
+    "quick": dict(channels=32, skip_channels=32),
+    "default": dict(channels=48, skip_channels=64),
+    "paper": dict(channels=256, skip_channels=256),
+}
+
+
+def make_config(size: str = "default", **overrides) -> CCNetConfig:
+    if size not in SIZES:
+        raise KeyError(f"unknown CCNet size {size!r}; choose from {sorted(SIZES)}")
+    return CCNetConfig(**{**SIZES[size], **overrides})

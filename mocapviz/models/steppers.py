@@ -1,0 +1,185 @@
+"""CCNet run one frame at a time (the fast-WaveNet queue idea): incremental generation.
+
+Each block keeps its last d_i inputs in a ring, so a new frame costs one small matmul chain per
+block instead of recomputing the receptive field. Two engines with the same interface
+(:class:`mocapviz.models.protocol.Stepper`) and results to float rounding: :class:`CCNetStepper`
+on torch tensors (better for large batches) and :class:`NumpyStepper` on numpy arrays (for a few
+characters: a frame is ~140 tiny calls and numpy's per-call cost is a fraction of torch's).
+Both equal ``CCNet.forward`` (eval mode) on the whole sequence, to float rounding.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import torch
+
+if TYPE_CHECKING:
+    from mocapviz.models.ccnet import CCNet
+
+
+@dataclass
+class _StepWeights:
+    enc_w: torch.Tensor
+    enc_b: torch.Tensor
+    ctrl_static_w: torch.Tensor   # (n_skel + n_types, nb * 2C)
+    ctrl_traj_w: torch.Tensor     # (n_traj, nb * 2C)
+    ctrl_b: torch.Tensor          # (nb * 2C,)
+    past_w: list = field(default_factory=list)
+    cur_w: list = field(default_factory=list)
+    res_w: list = field(default_factory=list)
+    skip_w: torch.Tensor = None   # (nb * C, S)
+    skip_b: torch.Tensor = None
+    dec_w: torch.Tensor = None
+    dec_b: torch.Tensor = None
+
+
+class CCNetStepper:
+    """Incremental CCNet: one frame per call, past block inputs kept in per-block rings.
+
+    Equal to ``CCNet.forward`` (eval mode) on the whole sequence, to float rounding. The gated
+    unit uses sigmoid(b) = (1 + tanh(b/2)) / 2 so one tanh serves both halves (the gate half
+    of the weights is pre-scaled by 1/2, and the 1/2 folded into the residual/skip weights);
+    skip projections of all blocks are one matmul on the concatenated gate outputs.
+    """
+
+    def __init__(self, model: "CCNet", batch: int = 1, dtype=torch.float32):
+        """Copies the weights of ``model`` (retake a stepper after changing the model)."""
+        self.cfg = cfg = model.cfg
+        self.batch = batch
+        c = cfg.channels
+        with torch.no_grad():
+            gate_scale = torch.cat([torch.ones(c), torch.full((c,), 0.5)]).to(dtype)
+            st, tr, bias = [], [], []
+            w = _StepWeights(enc_w=model.encoder.weight[:, :, 0].T.to(dtype).contiguous(),
+                             enc_b=model.encoder.bias.to(dtype).clone(), ctrl_static_w=None,
+                             ctrl_traj_w=None, ctrl_b=None)
+            skip_ws, skip_b = [], 0
+            for blk in model.blocks:
+                cw = blk.conv.weight.to(dtype) * gate_scale[:, None, None]
+                w.past_w.append(cw[:, :, 0].T.contiguous())
+                w.cur_w.append(cw[:, :, 1].T.contiguous())
+                st.append(torch.cat([blk.ctrl_skel.weight[:, :, 0], blk.ctrl_type.weight[:, :, 0]], 1).to(dtype)
+                          * gate_scale[:, None])
+                tr.append(blk.ctrl_traj.weight[:, :, 0].to(dtype) * gate_scale[:, None])
+                bias.append(blk.conv.bias.to(dtype) * gate_scale)
+                w.res_w.append((0.5 * blk.res.weight[:, :, 0].T).to(dtype).contiguous())
+                skip_ws.append((0.5 * blk.skip.weight[:, :, 0].T).to(dtype))
+                if blk.skip.bias is not None:
+                    skip_b = skip_b + blk.skip.bias.to(dtype)
+            w.ctrl_static_w = torch.cat(st, 0).T.contiguous()
+            w.ctrl_traj_w = torch.cat(tr, 0).T.contiguous()
+            w.ctrl_b = torch.cat(bias)
+            w.skip_w = torch.cat(skip_ws, 0).contiguous()
+            w.skip_b = skip_b.clone() if torch.is_tensor(skip_b) else torch.zeros(cfg.skip_channels, dtype=dtype)
+            w.dec_w = model.decoder.weight[:, :, 0].T.to(dtype).contiguous()
+            w.dec_b = model.decoder.bias.to(dtype).clone()
+        self.w = w
+        self.dtype = dtype
+        self._static = None
+        self.reset()
+
+    def reset(self):
+        """Forget the past (zeros, as the causal padding of the full model)."""
+        nb, r = len(self.cfg.dilations), max(self.cfg.dilations)
+        # hist[t % R, i] holds block i's input at frame t; block i reads frame t - d_i.
+        self.hist = torch.zeros(r, nb, self.batch, self.cfg.channels, dtype=self.dtype)
+        self._past_index = [torch.tensor([(p - d) % r for d in self.cfg.dilations]) for p in range(r)]
+        self._blocks = torch.arange(nb)
+        self._past_w = torch.stack(self.w.past_w)
+        self._gates = torch.zeros(nb, self.batch, self.cfg.channels, dtype=self.dtype)
+        self._skip_w = self.w.skip_w.view(nb, self.cfg.channels, -1)
+        self._skip_b = (self.w.skip_b / nb).expand(nb, 1, -1)
+        self.t = 0
+
+    def set_static(self, skel: torch.Tensor, types: torch.Tensor):
+        """Skeleton (B, n_skel) and type one-hot (B, n_types): their projection is cached."""
+        with torch.inference_mode():
+            self._static = torch.addmm(self.w.ctrl_b, torch.cat([skel, types], 1).to(self.dtype),
+                                       self.w.ctrl_static_w)
+
+    def step(self, x: torch.Tensor, traj: torch.Tensor) -> torch.Tensor:
+        """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}; returns the raw decoder
+        output (B, n_out) for frame t+1 (split it with ``CCNet.split_output``)."""
+        w = self.w
+        c = self.cfg.channels
+        nb = len(self.cfg.dilations)
+        r = self.hist.shape[0]
+        past = self.hist[self._past_index[self.t % r], self._blocks]          # (nb, B, C), a copy
+        cur = self.hist[self.t % r]                # block inputs of this frame are written here
+        torch.addmm(w.enc_b, x, w.enc_w, out=cur[0]).relu_()
+        cz = torch.addmm(self._static, traj, w.ctrl_traj_w)
+        pre = torch.baddbmm(cz.view(self.batch, nb, 2 * c).transpose(0, 1), past, self._past_w)
+        gates = self._gates
+        for i in range(nb):
+            z = pre[i].addmm_(cur[i], w.cur_w[i]).tanh_()
+            a, b = z.chunk(2, dim=1)
+            torch.addcmul(a, a, b, out=gates[i])   # 2 tanh(a) sigmoid(b); the 1/2 is in res/skip
+            if i + 1 < nb:                          # the last block's residual feeds nothing
+                torch.addmm(cur[i], gates[i], w.res_w[i], out=cur[i + 1])
+        self.t += 1
+        skip = torch.baddbmm(self._skip_b, gates, self._skip_w).sum(0).relu_()
+        return torch.addmm(w.dec_b, skip, w.dec_w)
+
+
+class NumpyStepper:
+    """The same incremental step on numpy arrays: for one character the per-call overhead of
+    numpy is a fraction of torch's, and a frame is ~140 tiny calls. Same interface and results
+    (to float rounding) as :class:`CCNetStepper`, with numpy arrays in and out."""
+
+    def __init__(self, model: "CCNet", batch: int = 1):
+        ref = CCNetStepper(model, batch)
+        w = ref.w
+        f = lambda t: t.detach().numpy().astype(np.float32).copy()  # noqa: E731
+        self.cfg, self.batch = ref.cfg, batch
+        self.enc_w, self.enc_b = f(w.enc_w), f(w.enc_b)
+        self.ctrl_static_w, self.ctrl_traj_w, self.ctrl_b = f(w.ctrl_static_w), f(w.ctrl_traj_w), f(w.ctrl_b)
+        self.past_w = np.stack([f(x) for x in w.past_w])
+        self.cur_w = [f(x) for x in w.cur_w]
+        self.res_w = [f(x) for x in w.res_w]
+        self.skip_w, self.skip_b, self.dec_w, self.dec_b = f(w.skip_w), f(w.skip_b), f(w.dec_w), f(w.dec_b)
+        self._static = None
+        self.reset()
+
+    def reset(self):
+        c, dil = self.cfg.channels, self.cfg.dilations
+        zero = np.zeros((self.batch, c), dtype=np.float32)
+        self.rings = [[zero] * d for d in dil]
+        self._g = np.zeros((self.batch, len(dil) * c), dtype=np.float32)
+        self.t = 0
+
+    def set_static(self, skel, types):
+        st = np.concatenate([np.asarray(skel, np.float32), np.asarray(types, np.float32)], 1)
+        self._static = st @ self.ctrl_static_w + self.ctrl_b
+
+    def step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:
+        c, nb, t = self.cfg.channels, len(self.rings), self.t
+        h = x @ self.enc_w
+        h += self.enc_b
+        np.maximum(h, 0, out=h)
+        cz = traj @ self.ctrl_traj_w
+        cz += self._static
+        slots = [t % len(r) for r in self.rings]
+        past = np.stack([r[s] for r, s in zip(self.rings, slots)])          # (nb, B, C)
+        pre = np.matmul(past, self.past_w)                                  # (nb, B, 2C)
+        pre += cz.reshape(self.batch, nb, 2 * c).transpose(1, 0, 2)
+        g_all = self._g
+        for i in range(nb):
+            z = h @ self.cur_w[i]
+            z += pre[i]
+            np.tanh(z, out=z)
+            a = z[:, :c]
+            g = g_all[:, i * c:(i + 1) * c]
+            np.multiply(a, z[:, c:], out=g)
+            g += a
+            self.rings[i][slots[i]] = h
+            h = h + g @ self.res_w[i]
+        self.t = t + 1
+        skip = g_all @ self.skip_w
+        skip += self.skip_b
+        np.maximum(skip, 0, out=skip)
+        out = skip @ self.dec_w
+        out += self.dec_b
+        return out

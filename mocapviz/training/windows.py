@@ -1,0 +1,41 @@
+"""Training windows of a CCNet dataset: normalised arrays and a sampler of (clip, start) windows."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from mocapviz.features.motion_types import one_hot
+
+
+class WindowData:
+    """Normalised arrays of a CCNet dataset and a sampler of training windows.
+
+    ``ds`` is a :class:`mocapviz.datasets.ccnet.CCNetDataset` (anything with the same fields).
+    Every model on the CCNet features (CCNet, and the recurrent baselines) trains on these
+    batches; a batch's keys are the models' ``input_names`` plus the targets.
+    """
+
+    def __init__(self, ds, window: int, normaliser=None):
+        norm = normaliser or ds.normaliser
+        self.window = window
+        self.layout = ds.layout
+        self.x = torch.from_numpy(norm.norm_x(ds.x))
+        self.traj = torch.from_numpy(norm.norm_traj(ds.traj))
+        self.skel = torch.from_numpy(norm.norm_skel(ds.skel))
+        self.types = torch.from_numpy(one_hot(ds.clips.type_index.values, self.layout.n_types))
+        self.clip_start = ds.clips.start.values
+        self.train = ds.window_starts("train", window)
+        self.test = ds.window_starts("test", window, stride=window)
+        # validation (the whole held-out actor mm by default, 43 clips): every window (stride 1),
+        # so every frame counts at every context length; ~3400 windows, a few seconds per evaluation
+        self.val = ds.window_starts("val", window, stride=1)
+        self.n_train_frames = int(sum(r.stop - r.start for r in ds.clips.itertuples() if r.split == "train"))
+
+    def batch(self, pairs: np.ndarray) -> dict[str, torch.Tensor]:
+        """Inputs x_t, controls c_{t+1}, targets x_{t+1} and c^d_{t+2} for windows (clip, start)."""
+        clip = pairs[:, 0]
+        g = self.clip_start[clip] + pairs[:, 1]
+        idx = torch.from_numpy(g[:, None] + np.arange(self.window)[None])
+        return dict(x=self.x[idx], traj=self.traj[idx + 1], skel=self.skel[clip], types=self.types[clip],
+                    target_x=self.x[idx + 1], target_traj=self.traj[idx + 2])
