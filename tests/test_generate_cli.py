@@ -200,3 +200,33 @@ def test_console_script_runs(data_dir, tmp_path):
     assert "wrote" in res.stderr + res.stdout and "generate" in res.stderr  # the tqdm bar
     back = read_bvh(out)
     assert back.n_frames == 120 + 120 and back.fps == 60.0
+
+
+def test_the_rig_sees_past_a_file_rest_pose(data_dir, checkpoint):
+    """The same CMU walk written with its whole rest pose turned (a body lying along X, as
+    Bandai's is) reaches the model unchanged: the rest alignment undoes the file's convention."""
+    from scipy.spatial.transform import Rotation
+
+    from mocapviz.motion import Motion
+    from mocapviz.skeleton import Skeleton, map_to_ccnet25
+    from mocapviz.tasks.generate_bvh import mean_rest
+    from mocapviz.tasks.rig import ModelRig
+
+    _, norm, meta = checkpoint
+    ds = meta["dataset"]
+    seed = load_seed(data_dir / CMU_WALK[0])[:120]
+    q = Rotation.from_euler("ZYX", [90, 30, -20], degrees=True).as_matrix()
+    sk = seed.skeleton
+    turned_sk = Skeleton(sk.names, sk.parents, sk.offsets @ q.T, tuple((j, tuple(q @ np.asarray(o))) for j, o in sk.end_sites))
+    rot = q @ seed.rotations @ q.T
+    rot[:, 0] = seed.rotations[:, 0] @ q.T
+    turned = Motion(turned_sk, rot, seed.root_positions, seed.fps)
+    np.testing.assert_allclose(turned.positions(), seed.positions(), atol=1e-9)  # the same motion
+    rigs = [ModelRig(m, map_to_ccnet25(sk.names), ds["joint_names"], ds["parents"], mean_rest(norm))
+            for m in (seed, turned)]
+    a, b = (r.to_model(m) for r, m in zip(rigs, (seed, turned)))
+    np.testing.assert_allclose(rigs[1].skeleton.offsets, rigs[0].skeleton.offsets, atol=1e-9)
+    np.testing.assert_allclose(b.rotations, a.rotations, atol=1e-9)
+    # without the alignment the model would read other local rotations
+    plain = [ModelRig(m, map_to_ccnet25(sk.names), ds["joint_names"], ds["parents"]) for m in (seed, turned)]
+    assert np.abs(plain[1].to_model(turned).rotations - plain[0].to_model(seed).rotations).max() > 0.5

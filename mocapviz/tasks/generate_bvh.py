@@ -3,8 +3,9 @@
 The seed (BVH, or ASF/AMC) loses a leading inserted T-pose frame
 (:func:`mocapviz.io.tpose.leading_tpose_frames`), is resampled to the model's 60 fps and cut
 to ``seed_seconds``; its skeleton is mapped onto the model's joints
-(:func:`mocapviz.skeleton.map_to_ccnet25`, :class:`mocapviz.tasks.rig.ModelRig`), whose rest
-pose, the file's own bone lengths, gives c^s. :class:`mocapviz.tasks.generate.Generator`
+(:func:`mocapviz.skeleton.map_to_ccnet25`, :class:`mocapviz.tasks.rig.ModelRig`) and aligned to
+the mean rest pose of the training skeletons; that rest pose with the file's own bone lengths
+gives c^s. :class:`mocapviz.tasks.generate.Generator`
 continues the seed; the generated frames go back onto the seed's skeleton (all its joints and
 names) and follow the seed frames in the output.
 """
@@ -61,6 +62,12 @@ def load_seed(path, asf=None, fps: float = 120.0, up: str = "y") -> Motion:
     motion = motion[skip:]
     motion.meta["tpose_frames"] = skip
     return motion
+
+
+def mean_rest(normaliser) -> np.ndarray:
+    """Rest joint positions (J, 3) of the mean training skeleton, root at the origin: the mean
+    c^s without its first value, the root height (layout of :meth:`Skeleton.configuration`)."""
+    return np.concatenate([np.zeros(3), np.asarray(normaliser.skel_mean[1:], dtype=np.float64)]).reshape(-1, 3)
 
 
 @dataclass
@@ -122,7 +129,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
         raise GenerateError(f"the seed is too short: {n_seed} frames at {fps:g} fps ({n_seed / fps:.2f} s), "
                             f"the model needs at least {need} ({need / fps:.2f} s, its receptive field + 1)")
     seed60 = seed60[:n_seed]
-    rig = ModelRig(seed60, names, ds["joint_names"], ds["parents"])
+    rig = ModelRig(seed60, names, ds["joint_names"], ds["parents"], canonical_rest=mean_rest(normaliser))
     seed_m = rig.to_model(seed60)
     feats = motion_features(seed_m, fps)
     n_gen = int(round(seconds * fps))

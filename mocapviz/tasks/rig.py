@@ -13,6 +13,17 @@ joint, :func:`mocapviz.skeleton.map_to_ccnet25`) the file's joints are of three 
   offset below it. The made-up joint's rotation then moves nothing (its only child is at its
   own position), so whatever the model writes there is lost without changing any position.
 
+Rest pose: a file's local rotations are relative to *its* rest pose (Bandai's lies along X,
+Mixamo's stands straight-legged, CMU's splays the legs), and a model reads them as relative to
+the rest pose of its training skeletons. Given that rest pose (``canonical_rest``, e.g. the
+mean c^s of the training data), each mapped joint gets a constant alignment rotation A_c that
+turns the model's rest directions of its bones onto the file's (a best fit, scipy's
+``align_vectors``, where a joint has bones in several directions; the shortest arc after its
+parent's alignment where it has one, so that twist is carried down the chain; its parent's
+where it has none). The model joint's global rotation is then the file joint's times A_c, and
+the model skeleton's offsets are the file's bones turned by A_c^T: the file's bone lengths in
+the training skeletons' rest directions, which is what c^s shows the model.
+
 So the mapping back (:meth:`ModelRig.from_model`) is exact: forward kinematics of the file
 skeleton at the mapped joints equals the model skeleton's joint positions. Why global, not
 local rotations: when joints are dropped in between, the model joint's local rotation is the
@@ -25,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from mocapviz.heading import shortest_arc
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton, SkeletonMapError
 
@@ -44,9 +56,11 @@ def _to_local(g: np.ndarray, parents: np.ndarray) -> np.ndarray:
 class ModelRig:
     """``reference``: a motion on the file's skeleton (its mean pose fixes the unmapped joints);
     ``joint_map``: file joint name -> model joint name; ``names``, ``parents``: the model's
-    joint tree (topological order, root first)."""
+    joint tree (topological order, root first); ``canonical_rest`` (J, 3): the model's rest
+    joint positions (metres, root at the origin) that the file's rest is aligned to (None:
+    the file's own rest pose, no alignment)."""
 
-    def __init__(self, reference: Motion, joint_map: dict[str, str], names, parents):
+    def __init__(self, reference: Motion, joint_map: dict[str, str], names, parents, canonical_rest=None):
         sk = self.file_skeleton = reference.skeleton
         self.names, self.parents = tuple(names), np.asarray(parents, dtype=np.int64)
         by_model = {m: sk.index(f) for f, m in joint_map.items()}
@@ -58,25 +72,97 @@ class ModelRig:
         self.translated = sorted(reference.translations)  # joints with per-frame translations
         for j, t in reference.translations.items():
             self.fixed_trans[j] = t.mean(axis=0)
+        self.align = np.broadcast_to(np.eye(3), (len(self.names), 3, 3)).copy()  # A_c per model joint
+        if canonical_rest is not None:
+            self.align = self._alignments(np.asarray(canonical_rest, dtype=np.float64))
         self.skeleton = Skeleton(self.names, self.parents, *self._model_rest())
 
     def _chain(self, top: int, j: int) -> np.ndarray:
         """Vector (3,) from file joint ``top`` to its descendant ``j`` in ``top``'s frame, the
         joints between at their fixed rotation and translation."""
+        return self._chain_pose(top, j)[0]
+
+    def _chain_pose(self, top: int, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_chain` and the rotation (3, 3) of ``j``'s parent frame in ``top``'s frame."""
         mapped = set(self.source[self.source >= 0].tolist())
-        v, k = self.fixed_trans[j], int(self.file_skeleton.parents[j])
+        v, k, rot = self.fixed_trans[j], int(self.file_skeleton.parents[j]), np.eye(3)
         while k != top:
             if k < 0 or k in mapped:
                 sk = self.file_skeleton
                 raise SkeletonMapError(f"the joint map breaks the tree: {sk.names[j]!r} is not below "
                                        f"{sk.names[top]!r} without another mapped joint in between")
             v = self.fixed_trans[k] + self.fixed_rot[k] @ v
+            rot = self.fixed_rot[k] @ rot
             k = int(self.file_skeleton.parents[k])
-        return v
+        return v, rot
+
+    def _nearest_mapped_above(self, c: int) -> int:
+        above = self.parents[c]
+        while self.source[above] < 0:  # the root is mapped
+            above = self.parents[above]
+        return int(above)
+
+    def _file_rest(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rest positions (J, 3) of the model joints on the file's skeleton (mapped joints at
+        identity, the others fixed; made-up joints where they sit, see :meth:`_model_rest`),
+        and the rest frames (J, 3, 3) of the mapped ones, in the model root's frame."""
+        n, src = len(self.names), self.source
+        pos, frame = np.zeros((n, 3)), np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+        for c in range(1, n):
+            if src[c] >= 0:
+                a = self._nearest_mapped_above(c)
+                v, rot = self._chain_pose(int(src[a]), int(src[c]))
+                pos[c], frame[c] = pos[a] + frame[a] @ v, frame[a] @ rot
+        for c in range(n - 1, 0, -1):  # made-up joints sit on their child (a leaf: its parent's end site)
+            if src[c] < 0:
+                kids = np.flatnonzero(self.parents == c)
+                pos[c] = pos[kids[0]] if len(kids) else pos[self.parents[c]] + frame[self.parents[c]] @ self._tip(c)
+        return pos, frame
+
+    def _alignments(self, canonical: np.ndarray) -> np.ndarray:
+        """A_c (J, 3, 3): model rest directions -> the file's, per mapped joint (module docstring)."""
+        n, src = len(self.names), self.source
+        pos, frame = self._file_rest()
+        kids = [np.flatnonzero(self.parents == c) for c in range(n)]
+        align = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+        for c in range(n):
+            base = align[self.parents[c]] if c else np.eye(3)
+            if src[c] < 0:
+                align[c] = base
+                continue
+            model_dirs, file_dirs = [], []
+            for k in kids[c]:  # each bone's direction: the first joint down its chain 5 cm away
+                d = int(k)
+                while (np.linalg.norm(canonical[d] - canonical[c]) < 0.05
+                       or np.linalg.norm(pos[d] - pos[c]) < 0.05) and len(kids[d]):
+                    d = int(kids[d][0])
+                m, f = canonical[d] - canonical[c], frame[c].T @ (pos[d] - pos[c])
+                if np.linalg.norm(m) > 1e-6 and np.linalg.norm(f) > 1e-6:
+                    model_dirs.append(m / np.linalg.norm(m))
+                    file_dirs.append(f / np.linalg.norm(f))
+            spread = max((np.linalg.norm(np.cross(a, b)) for a in model_dirs for b in model_dirs), default=0.0)
+            if spread > 0.2:  # bones in several directions (hips): the best-fitting rotation
+                align[c] = Rotation.align_vectors(np.array(file_dirs), np.array(model_dirs))[0].as_matrix()
+            elif model_dirs:  # one direction: the shortest arc after the parent's alignment
+                m, f = np.mean(model_dirs, axis=0), np.mean(file_dirs, axis=0)
+                align[c] = shortest_arc(base @ m, f) @ base
+            else:
+                align[c] = base
+        return align
+
+    def _tip(self, c: int) -> np.ndarray:
+        """A missing leaf's offset in its mapped parent's file frame: the parent's end site."""
+        fsk, p = self.file_skeleton, int(self.source[self.parents[c]])
+        tips = [off for j, off in fsk.end_sites if j == p]
+        if p < 0 or not tips:
+            raise SkeletonMapError(f"the file has no joint for {self.names[c]!r} and no end site to put it at")
+        return np.asarray(tips[0], dtype=np.float64)
 
     def _model_rest(self):
-        """Offsets (J, 3) and end sites of the model skeleton (see the module docstring)."""
-        names, parents, src, fsk = self.names, self.parents, self.source, self.file_skeleton
+        """Offsets (J, 3) and end sites of the model skeleton: the file's bones turned by the
+        alignment A^T; a made-up joint takes the whole file bone to its one model child, which
+        sits at zero offset below it (so the made-up joint's rotation moves nothing)."""
+        names, parents, src, fsk, align = self.names, self.parents, self.source, self.file_skeleton, self.align
         offsets = np.zeros((len(names), 3))
         kids = [np.flatnonzero(parents == c).tolist() for c in range(len(names))]
         ends = []
@@ -86,23 +172,17 @@ class ModelRig:
                     raise SkeletonMapError(f"the file has no joint for {names[c]!r}, which cannot be made up "
                                            f"({len(kids[c])} children); map one with the explicit joint map")
                 if not kids[c]:  # a missing leaf (a toe): at its parent's end site in the file
-                    tips = [off for j, off in fsk.end_sites if j == src[parents[c]]]
-                    if not tips:
-                        raise SkeletonMapError(f"the file has no joint for {names[c]!r} and no end site "
-                                               f"below {fsk.names[src[parents[c]]]!r} to put it at")
-                    offsets[c] = tips[0]
+                    offsets[c] = align[parents[c]].T @ self._tip(c)
                 continue
-            above = parents[c]
-            while src[above] < 0:  # the nearest mapped model ancestor (the root is mapped)
-                above = parents[above]
+            above = self._nearest_mapped_above(c)
             top = c
             while parents[top] != above:  # the made-up joint right below it takes the whole bone
                 top = parents[top]
-            offsets[top] = self._chain(int(src[above]), int(src[c]))
-            ends += [(c, off) for j, off in fsk.end_sites if j == src[c]]
+            offsets[top] = align[above].T @ self._chain(int(src[above]), int(src[c]))
+            ends += [(c, tuple(align[c].T @ np.asarray(off))) for j, off in fsk.end_sites if j == src[c]]
             file_kids = fsk.children(int(src[c]))
             if file_kids and not kids[c]:  # children dropped (hands): an end site where the first was
-                ends.append((c, tuple(self.fixed_trans[file_kids[0]])))
+                ends.append((c, tuple(align[c].T @ self.fixed_trans[file_kids[0]])))
         return offsets, tuple(ends)
 
     def to_model(self, motion: Motion) -> Motion:
@@ -111,7 +191,7 @@ class ModelRig:
         p, g = motion.global_pose()
         gm = np.empty((motion.n_frames, len(self.names), 3, 3))
         for c, s in enumerate(self.source):
-            gm[:, c] = g[:, s] if s >= 0 else gm[:, self.parents[c]]
+            gm[:, c] = g[:, s] @ self.align[c] if s >= 0 else gm[:, self.parents[c]]
         return Motion(self.skeleton, _to_local(gm, self.parents), p[:, self.source[0]], motion.fps,
                       name=motion.name, meta={"source": motion.meta.get("source", "")})
 
@@ -129,7 +209,8 @@ class ModelRig:
             p[:, 0] = pm[:, 0] - self.fixed_rot[0] @ self._chain(0, root_src)
         for j in range(fsk.n_joints):
             if j in model_of:
-                g[:, j], p[:, j] = gm[:, model_of[j]], pm[:, model_of[j]]
+                c = model_of[j]
+                g[:, j], p[:, j] = gm[:, c] @ self.align[c].T, pm[:, c]
             elif j > 0:
                 q = fsk.parents[j]
                 g[:, j] = g[:, q] @ self.fixed_rot[j]
