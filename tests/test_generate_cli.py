@@ -29,7 +29,10 @@ ROOT = Path(__file__).resolve().parent.parent
 CMU_WALK = ("cmu/35/35_01.bvh", None)                                    # 120 fps, T-pose frame 0
 BANDAI_WALK = ("bandai/dataset-2/dataset-2_walk_active_027.bvh", None)   # 30 fps, reference root, 21 mapped joints
 HDM05_JOG = ("hdm05/tr/HDM_tr_jogLeftCircle4StepsRstart_014_120.amc", "hdm05/tr/HDM_tr.asf")
-SEEDS = {"cmu": CMU_WALK, "bandai": BANDAI_WALK, "hdm05": HDM05_JOG}
+SEEDS = {"cmu": CMU_WALK, "bandai": BANDAI_WALK, "hdm05": HDM05_JOG, "cmu-dropped": CMU_WALK}
+# file joints left out between mapped ones (they move in the seed; the output holds them at
+# their mean), and the CCNet joints they stood for made up
+DROPPED_BETWEEN = {"LowerBack": None, "Neck": None, "Neck1": "Neck"}
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +50,8 @@ def written(request, data_dir, checkpoint, tmp_path_factory):
     """2 s generated after a 1 s seed, written and read back."""
     seed_file, asf = seed_paths(data_dir, request.param)
     seed = load_seed(seed_file, asf)
-    result = generate_from_seed(seed, *checkpoint, types=["walk"], seconds=2.0, seed_seconds=1.0)
+    result = generate_from_seed(seed, *checkpoint, types=["walk"], seconds=2.0, seed_seconds=1.0,
+                                joint_map=DROPPED_BETWEEN if request.param == "cmu-dropped" else None)
     out = tmp_path_factory.mktemp("gen") / f"{request.param}.bvh"
     from mocapviz.io.bvh import write_bvh
     write_bvh(result.motion, out)
@@ -70,8 +74,14 @@ def test_fk_of_the_file_at_the_mapped_joints_equals_the_generated_positions(writ
     assert np.abs(in_file - generated[:, mapped]).max() < 1e-4
     # the generated frames move (the integrated root at least), so the check is not vacuous
     assert np.ptp(generated[:, 0, [0, 2]], axis=0).max() > 0.05
+    made_up = [n for n, s in zip(result.rig.names, src) if s < 0]
     if key == "bandai":  # CCNet joints Bandai lacks are made up; the rest map
-        assert [n for n, s in zip(result.rig.names, src) if s < 0] == ["LHipJoint", "RHipJoint", "LowerBack", "Neck1"]
+        assert made_up == ["LHipJoint", "RHipJoint", "LowerBack", "Neck1"]
+    if key == "cmu-dropped":
+        assert made_up == ["LowerBack", "Neck1"]
+        neck = back.skeleton.index("Neck")  # dropped in between: moves in the seed, fixed after it
+        local = back.rotations[:, neck]
+        assert np.abs(local[:60] - local[0]).max() > 1e-3 and np.abs(local[60:] - local[60]).max() < 1e-5
 
 
 def test_seed_frames_in_the_file_equal_the_resampled_seed(written):
