@@ -9,12 +9,10 @@ map) end with one line on stderr and exit status 2, not a traceback.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from mocapviz.errors import MocapFormatError
-from mocapviz.zoo import ZOO_ENV
 
 from mocapviz.skeleton import SkeletonMapError
 
@@ -26,7 +24,7 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
                        description="Continue your own motion file with CCNet: the output BVH holds the seed "
                                    "frames, then the generated ones, at 60 fps on the seed's own skeleton.")
     p.add_argument("--model", default="ccnet_default",
-                   help=f"a .safetensors checkpoint, or a model name looked up in ${ZOO_ENV} and then in "
+                   help="a .safetensors checkpoint, or a model name looked up in $MOCAPVIZ_ZOO (mocapviz.zoo) and in "
                         "models/zoo/ of the current folder and its parents (default: %(default)s)")
     p.add_argument("--seed", required=True, help="the seed motion: a .bvh file, or an .amc file with --asf")
     p.add_argument("--asf", help="the ASF skeleton of an .amc seed")
@@ -58,20 +56,13 @@ def generate(args) -> None:
     from tqdm.auto import tqdm
 
     from mocapviz.io.bvh import write_bvh
-    from mocapviz.tasks.generate_bvh import generate_from_seed, load_seed
+    from mocapviz.tasks.generate_bvh import generate_from_seed, load_seed, read_json
     from mocapviz.training.checkpoint import load_checkpoint
     from mocapviz.zoo import find_checkpoint
 
     model, norm, meta = load_checkpoint(find_checkpoint(args.model))
     seed = load_seed(args.seed, args.asf, args.fps, args.up)
-    joint_map = None
-    if args.joint_map:
-        joint_map = json.loads(Path(args.joint_map).read_text()) if Path(args.joint_map).is_file() else None
-        if joint_map is None:
-            raise FileNotFoundError(f"joint map not found: {args.joint_map}")
-    path = json.loads(Path(args.path).read_text()) if args.path and Path(args.path).is_file() else None
-    if args.path and path is None:
-        raise FileNotFoundError(f"path file not found: {args.path}")
+    joint_map, path = read_json(args.joint_map, "joint map"), read_json(args.path, "path file")
     result = generate_from_seed(seed, model, norm, meta, types=args.types or ["walk"], seconds=args.seconds,
                                 switch_every=args.switch_every, path_xz=path, sample=args.sample, ik=args.ik,
                                 seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
@@ -82,7 +73,7 @@ def generate(args) -> None:
     m = result.motion
     tqdm.write(f"wrote {out}: {m.n_frames} frames at {m.fps:g} fps ({result.n_seed} seed + "
                f"{m.n_frames - result.n_seed} generated), {m.skeleton.n_joints} joints"
-               + (f"; skipped a leading T-pose frame of the seed" if seed.meta.get("tpose_frames") else ""))
+               + ("; skipped a leading T-pose frame of the seed" if seed.meta.get("tpose_frames") else ""))
 
 
 def main(argv=None) -> int:

@@ -156,6 +156,7 @@ def test_a_path_file_steers_and_types_switch(data_dir, tmp_path, capsys):
     ("missing seed", ["--seed", "no/such/walk.bvh"], "seed file not found: no/such/walk.bvh"),
     ("missing model", ["--model", "ccnet_nonesuch"], "no model named 'ccnet_nonesuch': looked for"),
     ("amc without asf", ["--seed", "HDM05"], "pass its skeleton with --asf"),
+    ("missing joint map", ["--joint-map", "no/map.json"], "joint map not found: no/map.json"),
 ])
 def test_errors_are_one_clear_line(data_dir, tmp_path, capsys, monkeypatch, case, args, message):
     monkeypatch.chdir(ROOT)

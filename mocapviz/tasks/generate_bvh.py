@@ -12,6 +12,7 @@ names) and follow the seed frames in the output.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,6 +41,16 @@ def _need_file(path, what: str) -> Path:
     if not path.is_file():
         raise FileNotFoundError(f"{what} not found: {path}")
     return path
+
+
+def read_json(path, what: str):
+    """The JSON value in file ``path`` (None for no path)."""
+    if path is None:
+        return None
+    try:
+        return json.loads(_need_file(path, what).read_text())
+    except json.JSONDecodeError as e:
+        raise GenerateError(f"{what} {path} is not JSON: {e}") from None
 
 
 def load_seed(path, asf=None, fps: float = 120.0, up: str = "y") -> Motion:
