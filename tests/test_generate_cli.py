@@ -215,12 +215,14 @@ def test_console_script_runs(data_dir, tmp_path):
 
 def test_the_rig_sees_past_a_file_rest_pose(data_dir, checkpoint):
     """The same CMU walk written with its whole rest pose turned (a body lying along X, as
-    Bandai's is) reaches the model unchanged: the rest alignment undoes the file's convention."""
+    Bandai's is) reaches the model unchanged: the rest alignment (and the twist fitted to the
+    training rotations) undoes the file's convention."""
     from scipy.spatial.transform import Rotation
 
+    from mocapviz.features.ccnet import motion_features
     from mocapviz.motion import Motion
     from mocapviz.skeleton import Skeleton, map_to_ccnet25
-    from mocapviz.tasks.generate_bvh import mean_rest
+    from mocapviz.tasks.generate_bvh import mean_rest, rotation_stats
     from mocapviz.tasks.rig import ModelRig
 
     _, norm, meta = checkpoint
@@ -233,11 +235,20 @@ def test_the_rig_sees_past_a_file_rest_pose(data_dir, checkpoint):
     rot[:, 0] = seed.rotations[:, 0] @ q.T
     turned = Motion(turned_sk, rot, seed.root_positions, seed.fps)
     np.testing.assert_allclose(turned.positions(), seed.positions(), atol=1e-9)  # the same motion
-    rigs = [ModelRig(m, map_to_ccnet25(sk.names), ds["joint_names"], ds["parents"], mean_rest(norm))
-            for m in (seed, turned)]
+    rigs = [ModelRig(m, map_to_ccnet25(sk.names), ds["joint_names"], ds["parents"], mean_rest(norm),
+                     rotation_stats(norm, 25)) for m in (seed, turned)]
     a, b = (r.to_model(m) for r, m in zip(rigs, (seed, turned)))
     np.testing.assert_allclose(rigs[1].skeleton.offsets, rigs[0].skeleton.offsets, atol=1e-9)
     np.testing.assert_allclose(b.rotations, a.rotations, atol=1e-9)
+    # the twist fit brings Bandai's rotations to the training range: mean |z| 1.5 -> 0.5 on this walk
+    bandai = load_seed(data_dir / BANDAI_WALK[0]).resample(60)[:120]
+    z = []
+    for stats in (None, rotation_stats(norm, 25)):
+        rig = ModelRig(bandai, map_to_ccnet25(bandai.skeleton.names), ds["joint_names"], ds["parents"],
+                       mean_rest(norm), stats)
+        x = motion_features(rig.to_model(bandai)).x
+        z.append(np.abs(norm.norm_x(x)[:, :75]).mean())
+    assert z[1] < 0.7 < 1.2 < z[0]
     # without the alignment the model would read other local rotations
     plain = [ModelRig(m, map_to_ccnet25(sk.names), ds["joint_names"], ds["parents"]) for m in (seed, turned)]
     assert np.abs(plain[1].to_model(turned).rotations - plain[0].to_model(seed).rotations).max() > 0.5

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mocapviz.features.ccnet import heading_angles, motion_features
+from mocapviz.features.ccnet import FeatureLayout, heading_angles, motion_features
 from mocapviz.features.motion_types import one_hot
 from mocapviz.io.asfamc import read_amc
 from mocapviz.io.bvh import read_bvh
@@ -81,6 +81,14 @@ def mean_rest(normaliser) -> np.ndarray:
     return np.concatenate([np.zeros(3), np.asarray(normaliser.skel_mean[1:], dtype=np.float64)]).reshape(-1, 3)
 
 
+def rotation_stats(normaliser, n_joints: int) -> tuple[np.ndarray, np.ndarray]:
+    """Training mean and standard deviation (J, 3) of each joint's local exp map (the frame
+    vector's ``rot`` block; the root's is relative to its heading)."""
+    rot = FeatureLayout(n_joints).x_blocks["rot"]
+    return (np.asarray(normaliser.x_mean[rot], dtype=np.float64).reshape(n_joints, 3),
+            np.asarray(normaliser.x_std[rot], dtype=np.float64).reshape(n_joints, 3))
+
+
 @dataclass
 class SeedGeneration:
     motion: Motion          # the seed's skeleton: seed frames, then generated ones (model fps)
@@ -140,7 +148,8 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
         raise GenerateError(f"the seed is too short: {n_seed} frames at {fps:g} fps ({n_seed / fps:.2f} s), "
                             f"the model needs at least {need} ({need / fps:.2f} s, its receptive field + 1)")
     seed60 = seed60[:n_seed]
-    rig = ModelRig(seed60, names, ds["joint_names"], ds["parents"], canonical_rest=mean_rest(normaliser))
+    rig = ModelRig(seed60, names, ds["joint_names"], ds["parents"], canonical_rest=mean_rest(normaliser),
+                   rotation_stats=rotation_stats(normaliser, len(ds["joint_names"])))
     seed_m = rig.to_model(seed60)
     feats = motion_features(seed_m, fps)
     n_gen = int(round(seconds * fps))

@@ -19,8 +19,10 @@ the rest pose of its training skeletons. Given that rest pose (``canonical_rest`
 mean c^s of the training data), each mapped joint gets a constant alignment rotation A_c that
 turns the model's rest directions of its bones onto the file's (a best fit, scipy's
 ``align_vectors``, where a joint has bones in several directions; the shortest arc after its
-parent's alignment where it has one, so that twist is carried down the chain; its parent's
-where it has none). The model joint's global rotation is then the file joint's times A_c, and
+parent's alignment where it has one, so that twist is carried down the chain, then turned
+about the bone by the twist that brings the reference motion's rotations nearest the
+training statistics when those are given, since a straight rest bone cannot show its twist;
+its parent's where it has none). The model joint's global rotation is then the file joint's times A_c, and
 the model skeleton's offsets are the file's bones turned by A_c^T: the file's bone lengths in
 the training skeletons' rest directions, which is what c^s shows the model.
 
@@ -38,6 +40,7 @@ from scipy.spatial.transform import Rotation
 
 from mocapviz.heading import shortest_arc
 from mocapviz.motion import Motion
+from mocapviz.rotations import matrix_to_rotvec, rotvec_to_matrix
 from mocapviz.skeleton import Skeleton, SkeletonMapError
 
 
@@ -58,9 +61,15 @@ class ModelRig:
     ``joint_map``: file joint name -> model joint name; ``names``, ``parents``: the model's
     joint tree (topological order, root first); ``canonical_rest`` (J, 3): the model's rest
     joint positions (metres, root at the origin) that the file's rest is aligned to (None:
-    the file's own rest pose, no alignment)."""
+    the file's own rest pose, no alignment); ``rotation_stats``: the model's training mean and
+    standard deviation (J, 3) of each joint's local exp map. With them a made-up joint takes its
+    mean rotation when a file motion goes to the model (so the file bone's rotation is split
+    between it and its child as in training), and a joint aligned along one bone gets the twist
+    about that bone (which a rest pose cannot show) that brings the reference motion's local
+    rotations closest to training (z-scores, greedily from the root down)."""
 
-    def __init__(self, reference: Motion, joint_map: dict[str, str], names, parents, canonical_rest=None):
+    def __init__(self, reference: Motion, joint_map: dict[str, str], names, parents, canonical_rest=None,
+                 rotation_stats=None):
         sk = self.file_skeleton = reference.skeleton
         self.names, self.parents = tuple(names), np.asarray(parents, dtype=np.int64)
         by_model = {m: sk.index(f) for f, m in joint_map.items()}
@@ -72,9 +81,12 @@ class ModelRig:
         self.translated = sorted(reference.translations)  # joints with per-frame translations
         for j, t in reference.translations.items():
             self.fixed_trans[j] = t.mean(axis=0)
-        self.align = np.broadcast_to(np.eye(3), (len(self.names), 3, 3)).copy()  # A_c per model joint
+        identity = np.broadcast_to(np.eye(3), (len(self.names), 3, 3))
+        self.stats = None if rotation_stats is None else [np.asarray(a, dtype=np.float64) for a in rotation_stats]
+        self.made_up_rot = identity if self.stats is None else rotvec_to_matrix(self.stats[0])
+        self.align = identity.copy()  # A_c per model joint
         if canonical_rest is not None:
-            self.align = self._alignments(np.asarray(canonical_rest, dtype=np.float64))
+            self.align = self._alignments(np.asarray(canonical_rest, dtype=np.float64), reference)
         self.skeleton = Skeleton(self.names, self.parents, *self._model_rest())
 
     def _chain(self, top: int, j: int) -> np.ndarray:
@@ -119,16 +131,19 @@ class ModelRig:
                 pos[c] = pos[kids[0]] if len(kids) else pos[self.parents[c]] + frame[self.parents[c]] @ self._tip(c)
         return pos, frame
 
-    def _alignments(self, canonical: np.ndarray) -> np.ndarray:
+    def _alignments(self, canonical: np.ndarray, reference: Motion) -> np.ndarray:
         """A_c (J, 3, 3): model rest directions -> the file's, per mapped joint (module docstring)."""
         n, src = len(self.names), self.source
         pos, frame = self._file_rest()
+        file_global = reference.global_pose()[1]
+        model_global = np.empty((reference.n_frames, n, 3, 3))  # G'_c of the reference, as A_c are chosen
         kids = [np.flatnonzero(self.parents == c) for c in range(n)]
         align = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
         for c in range(n):
             base = align[self.parents[c]] if c else np.eye(3)
             if src[c] < 0:
                 align[c] = base
+                model_global[:, c] = model_global[:, self.parents[c]] @ self.made_up_rot[c]
                 continue
             model_dirs, file_dirs = [], []
             for k in kids[c]:  # each bone's direction: the first joint down its chain 5 cm away
@@ -146,9 +161,25 @@ class ModelRig:
             elif model_dirs:  # one direction: the shortest arc after the parent's alignment
                 m, f = np.mean(model_dirs, axis=0), np.mean(file_dirs, axis=0)
                 align[c] = shortest_arc(base @ m, f) @ base
+                if self.stats is not None and c > 0:
+                    align[c] = align[c] @ self._best_twist(c, m, model_global[:, self.parents[c]],
+                                                           file_global[:, src[c]] @ align[c])
             else:
                 align[c] = base
+            model_global[:, c] = file_global[:, src[c]] @ align[c]
         return align
+
+    def _best_twist(self, c: int, axis: np.ndarray, parent_global: np.ndarray, global_rot: np.ndarray,
+                    steps: int = 72) -> np.ndarray:
+        """Rotation (3, 3) about the model bone ``axis`` (a twist that keeps the bone's
+        direction) whose local rotations parent^T global twist lie nearest the training mean,
+        in z-scores, over the reference frames; a grid of ``steps`` angles."""
+        twists = Rotation.from_rotvec(np.outer(np.arange(steps) * 2 * np.pi / steps, axis)).as_matrix()
+        local = np.swapaxes(parent_global, -1, -2) @ global_rot                     # (F, 3, 3)
+        cand = matrix_to_rotvec(local[None] @ twists[:, None])                     # (steps, F, 3)
+        mean, std = self.stats[0][c], np.maximum(self.stats[1][c], 1e-3)
+        score = (((cand - mean) / std) ** 2).sum(-1).mean(-1)
+        return twists[int(np.argmin(score))]
 
     def _tip(self, c: int) -> np.ndarray:
         """A missing leaf's offset in its mapped parent's file frame: the parent's end site."""
@@ -187,11 +218,12 @@ class ModelRig:
 
     def to_model(self, motion: Motion) -> Motion:
         """The model-skeleton motion (same frames) of a motion on the file's skeleton: mapped
-        joints take their file joint's global rotation, made-up joints their parent's."""
+        joints take their file joint's global rotation (times A_c), made-up joints their
+        parent's times ``made_up_rotations``."""
         p, g = motion.global_pose()
         gm = np.empty((motion.n_frames, len(self.names), 3, 3))
         for c, s in enumerate(self.source):
-            gm[:, c] = g[:, s] @ self.align[c] if s >= 0 else gm[:, self.parents[c]]
+            gm[:, c] = g[:, s] @ self.align[c] if s >= 0 else gm[:, self.parents[c]] @ self.made_up_rot[c]
         return Motion(self.skeleton, _to_local(gm, self.parents), p[:, self.source[0]], motion.fps,
                       name=motion.name, meta={"source": motion.meta.get("source", "")})
 
