@@ -45,6 +45,9 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     mode.add_argument("--mean", dest="sample", action="store_false", help="take its mean (default)")
     p.add_argument("--ik", action=argparse.BooleanOptionalAction, default=True,
                    help="foot-contact leg IK against sliding (default: on)")
+    p.add_argument("--skeleton-z", type=float, default=3.0, metavar="Z",
+                   help="c^s is kept within Z standard deviations of the training skeletons' mean: the network "
+                        "only knows their proportions (0: their mean skeleton; inf: yours as is; default: %(default)s)")
     p.add_argument("--random-seed", type=int, default=0, help="seed of the sampling noise (default: %(default)s)")
     p.add_argument("--out", required=True, help="the BVH file to write")
     p.set_defaults(run=generate)
@@ -66,7 +69,7 @@ def generate(args) -> None:
     result = generate_from_seed(seed, model, norm, meta, types=args.types or ["walk"], seconds=args.seconds,
                                 switch_every=args.switch_every, path_xz=path, sample=args.sample, ik=args.ik,
                                 seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
-                                progress=True)
+                                skeleton_z=args.skeleton_z, progress=True)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_bvh(result.motion, out)

@@ -22,7 +22,8 @@ from mocapviz import zoo
 from mocapviz.cli import main
 from mocapviz.io.bvh import read_bvh
 from mocapviz.io.tpose import leading_tpose_frames
-from mocapviz.tasks.generate_bvh import GenerateError, generate_from_seed, load_seed, path_points, type_schedule
+from mocapviz.tasks.generate_bvh import (GenerateError, generate_from_seed, limit_skeleton, load_seed, path_points,
+                                         type_schedule)
 from mocapviz.training.checkpoint import load_checkpoint
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -124,6 +125,15 @@ def test_type_schedule_switches_every_s_seconds():
     assert oh.shape == (133, 3) and idx.tolist() == expected
     with pytest.raises(GenerateError, match="--switch-every"):
         type_schedule(["walk", "jog"], known, 3, 10, None, 60)
+
+
+def test_limit_skeleton_clips_c_s_in_training_standard_deviations(checkpoint):
+    norm = checkpoint[1]
+    skel = norm.skel_mean + norm.skel_std * np.linspace(-6, 6, len(norm.skel_mean))
+    z = (limit_skeleton(skel, norm, 3.0) - norm.skel_mean) / norm.skel_std
+    np.testing.assert_allclose(z, np.clip(np.linspace(-6, 6, len(z)), -3, 3), atol=1e-4)
+    np.testing.assert_allclose(limit_skeleton(skel, norm, 0.0), norm.skel_mean)
+    np.testing.assert_allclose(limit_skeleton(skel, norm, np.inf), skel, rtol=1e-6)
 
 
 def test_path_points_are_resampled_per_generated_frame():

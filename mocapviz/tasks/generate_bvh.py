@@ -24,7 +24,7 @@ from mocapviz.io.asfamc import read_amc
 from mocapviz.io.bvh import read_bvh
 from mocapviz.io.tpose import leading_tpose_frames
 from mocapviz.motion import Motion
-from mocapviz.skeleton import SkeletonMapError, map_to_ccnet25
+from mocapviz.skeleton import Skeleton, SkeletonMapError, map_to_ccnet25
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.rig import ModelRig
 
@@ -124,7 +124,7 @@ def path_points(path_xz, n_gen: int) -> np.ndarray:
 
 def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk",), seconds: float = 10.0,
                        switch_every: float | None = None, path_xz=None, sample: bool = False, ik: bool = True,
-                       seed_seconds: float = 2.0, joint_map=None, rng_seed: int = 0,
+                       seed_seconds: float = 2.0, joint_map=None, rng_seed: int = 0, skeleton_z: float = 3.0,
                        progress: bool = False) -> SeedGeneration:
     """Continue ``seed`` (a Motion on any skeleton, e.g. from :func:`load_seed`) for ``seconds``.
 
@@ -133,7 +133,13 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     ``switch_every`` seconds; ``path_xz`` (N, 2): ground points in metres (world X, Z) relative
     to the seed's last root position, resampled to one per generated frame (default: the
     network's own trajectory); ``joint_map``: file joint -> CCNet joint (dict or JSON file),
-    over the automatic name map.
+    over the automatic name map; ``skeleton_z``: how far (training standard deviations) c^s
+    may lie from the training skeletons' mean (see :func:`limit_skeleton`).
+
+    The network sees the seed scaled to the training skeletons' mean root height (the output
+    is scaled back): a committed model trained on ~20 VICON skeletons crouched to half height
+    from a Bandai seed's own c^s (10 standard deviations out at the hips) and stood with it
+    limited to 3.
     """
     ds = meta["dataset"]
     fps, known = float(ds["fps"]), tuple(ds["motion_types"])
@@ -151,23 +157,43 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     rig = ModelRig(seed60, names, ds["joint_names"], ds["parents"], canonical_rest=mean_rest(normaliser),
                    rotation_stats=rotation_stats(normaliser, len(ds["joint_names"])))
     seed_m = rig.to_model(seed60)
-    feats = motion_features(seed_m, fps)
+    # the network knows the sizes of its training skeletons only: it sees the seed scaled to
+    # their mean root height, and c^s within skeleton_z standard deviations of their mean
+    size = float(normaliser.skel_mean[0] / seed_m.skeleton.configuration()[0])
+    seen = _scaled(seed_m, size)
+    feats = motion_features(seen, fps)
     n_gen = int(round(seconds * fps))
-    s = len(feats.x)
-    types_oh = type_schedule(list(types), known, s, n_gen, switch_every, fps)
-    theta = heading_angles(seed_m.positions(), seed_m.skeleton)
-    end_root, end_heading = seed_m.root_positions[-1], float(theta[-1])
+    types_oh = type_schedule(list(types), known, len(feats.x), n_gen, switch_every, fps)
+    theta = heading_angles(seen.positions(), seen.skeleton)
+    end_root, end_heading = seen.root_positions[-1], float(theta[-1])
     path = None
     if path_xz is not None:
-        ahead = path_points(path_xz, n_gen) + end_root[[0, 2]]
-        path = np.concatenate([seed_m.root_positions[1:, [0, 2]], ahead])[None]
+        ahead = path_points(path_xz, n_gen) * size + end_root[[0, 2]]
+        path = np.concatenate([seen.root_positions[1:, [0, 2]], ahead])[None]
     gen = Generator(model, normaliser, sample=sample, seed=rng_seed).run(
-        feats.x[None], feats.skel[None], types_oh[None], n_gen, path=path, seed_traj=feats.traj[None],
-        start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]), progress=progress)
-    gen_m = gen.motion(0, seed_m.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,
-                       include_seed=False)
+        feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
+        seed_traj=feats.traj[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
+        progress=progress)
+    gen_m = _scaled(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,
+                               include_seed=False), 1 / size)
     out = _concat(seed60, rig.from_model(gen_m))
     return SeedGeneration(out, n_seed, gen_m, rig)
+
+
+def limit_skeleton(skel: np.ndarray, normaliser, z: float) -> np.ndarray:
+    """c^s (n_skel,) clipped to within ``z`` training standard deviations of the training
+    mean, per value (``z = 0``: the mean training skeleton; ``inf``: unchanged)."""
+    dev = np.clip((skel - normaliser.skel_mean) / normaliser.skel_std, -z, z)
+    return (normaliser.skel_mean + dev * normaliser.skel_std).astype(np.float32)
+
+
+def _scaled(motion: Motion, k: float) -> Motion:
+    """The motion ``k`` times as large about the world origin (offsets, end sites and root;
+    rotations unchanged)."""
+    sk = motion.skeleton
+    ends = tuple((j, tuple(k * np.asarray(off))) for j, off in sk.end_sites)
+    return Motion(Skeleton(sk.names, sk.parents, k * sk.offsets, ends), motion.rotations, k * motion.root_positions,
+                  motion.fps, name=motion.name, meta=dict(motion.meta))
 
 
 def _concat(seed: Motion, generated: Motion) -> Motion:
