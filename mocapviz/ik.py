@@ -11,10 +11,11 @@ Convention as everywhere: global = parent_global @ local, column vectors, metres
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from mocapviz.heading import shortest_arc
-from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
 
@@ -101,11 +102,11 @@ def foot_lock_targets(ankle: np.ndarray, contact: np.ndarray, blend: int = 5) ->
 def remove_foot_sliding(motion: Motion, contacts: np.ndarray, legs=LEGS, blend: int = 5) -> Motion:
     """Motion with each foot held still while its contact label (F, 2) is on (two-bone IK)."""
     sk = motion.skeleton
-    pos, glob = forward_kinematics(motion.rotations, motion.root_positions, sk.offsets, sk.parents,
-                                   return_rotations=True)
+    pos, glob = motion.global_pose()
     targets = {leg[2]: foot_lock_targets(pos[:, sk.index(leg[2])], labels, blend)
                for leg, labels in zip(legs, np.asarray(contacts, dtype=bool).T)}
     rot = global_to_local(two_bone_ik(glob, pos, sk, targets, legs), sk.parents)
-    out = Motion(sk, rot, motion.root_positions.copy(), motion.fps, name=motion.name, meta=dict(motion.meta))
-    out.meta["foot_ik"] = True
-    return out
+    # Legs whose joints carry per-frame translations keep them: the IK reads bone lengths
+    # from the offsets, so a stretching leg is solved with its rest lengths (approximate).
+    return replace(motion, rotations=rot, root_positions=motion.root_positions.copy(),
+                   translations=dict(motion.translations), meta={**motion.meta, "foot_ik": True})

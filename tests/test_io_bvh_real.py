@@ -217,3 +217,23 @@ def test_heights_of_a_lying_rest_skeleton_come_from_its_bones():
     for sk in (m.skeleton, read_bvh(BANDAI[0]).skeleton):  # with or without the reference root
         assert sk.standing_height() == sk.height_from_bones()
         assert 0.9 * head < sk.standing_height() < 1.1 * head
+
+
+@needs_bandai
+def test_consumers_of_fk_keep_joint_translations():
+    """Foot locking and the end-site geometry run FK through ``Motion.global_pose``: on a raw
+    Bandai take (the trajectory in Hips' position channels, below ``joint_Root``) foot locking
+    with no contact frames changes nothing, and end sites hang off the travelling joints."""
+    from mocapviz.ik import remove_foot_sliding
+    from mocapviz.viz.geometry import end_site_segments
+
+    m = read_bvh(BANDAI[0])
+    assert m.translations, "the raw take keeps Hips' channels as joint translations"
+    legs = (("UpperLeg_L", "LowerLeg_L", "Foot_L"), ("UpperLeg_R", "LowerLeg_R", "Foot_R"))
+    out = remove_foot_sliding(m, np.zeros((m.n_frames, 2), dtype=bool), legs=legs)
+    np.testing.assert_allclose(out.positions(), m.positions(), atol=1e-9)
+    assert set(out.translations) == set(m.translations)
+    seg = end_site_segments(m)
+    pos = m.positions()
+    joints = [j for j, _ in m.skeleton.end_sites]
+    np.testing.assert_allclose(seg[:, :, 0], pos[:, joints], atol=1e-9)

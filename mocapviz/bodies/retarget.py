@@ -135,8 +135,7 @@ def retarget(motion: Motion, target: Skeleton, Q: np.ndarray | None = None, ik_a
                 warnings.warn(f"{motion.name}: joint {name} moves ({dev:.2f}) but is treated as static")
     if Q is None:
         Q = rest_alignment(src, target)
-    src_pos, src_glob = forward_kinematics(motion.rotations, motion.root_positions, src.offsets,
-                                           src.parents, return_rotations=True)
+    src_pos, src_glob = motion.global_pose()
     idx = np.array([src.index(n) if n in src.names else -1 for n in target.names])
     glob = np.empty((motion.n_frames, target.n_joints, 3, 3))
     for j in range(target.n_joints):

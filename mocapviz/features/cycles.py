@@ -21,7 +21,6 @@ from dtaidistance import dtw_ndim
 
 from mocapviz.heading import across_vector, facing_direction
 from mocapviz.ik import LEGS
-from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
 
 MIN_CYCLE_S = 0.3
@@ -39,8 +38,7 @@ def _forward_axis(motion: Motion) -> np.ndarray:
 def hip_flexion(motion: Motion) -> np.ndarray:
     """Left and right thigh flexion (F, 2) in degrees, in the pelvis (Hips) frame."""
     sk = motion.skeleton
-    pos, glob = forward_kinematics(motion.rotations, motion.root_positions, sk.offsets, sk.parents,
-                                   return_rotations=True)
+    pos, glob = motion.global_pose()
     pelvis = glob[:, 0]
     fwd = _forward_axis(motion)
     out = []

@@ -11,7 +11,6 @@ import numpy as np
 
 from mocapviz.heading import shortest_arc
 from mocapviz.ik import LEGS
-from mocapviz.kinematics import forward_kinematics
 from mocapviz.motion import Motion
 from mocapviz.rotations import rotvec_to_matrix
 from mocapviz.skeleton import Skeleton
@@ -39,8 +38,7 @@ def end_site_segments(motion: Motion) -> np.ndarray:
     sk = motion.skeleton
     if not sk.end_sites:
         return np.zeros((motion.n_frames, 0, 2, 3))
-    pos, rot = forward_kinematics(motion.rotations, motion.root_positions, sk.offsets, sk.parents,
-                                  return_rotations=True)
+    pos, rot = motion.global_pose()
     joints = np.array([j for j, _ in sk.end_sites])
     offs = np.array([off for _, off in sk.end_sites], dtype=np.float64)
     tips = pos[:, joints] + np.einsum("fekl,el->fek", rot[:, joints], offs)
