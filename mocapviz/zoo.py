@@ -12,6 +12,7 @@ knows no repository paths: :mod:`data_prep.zoo` passes the repository's ``models
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 from mocapviz.training.checkpoint import load_checkpoint
@@ -20,6 +21,34 @@ from mocapviz.training.runs import export_model
 from mocapviz.training.trainer import train
 
 MODELS = {f"ccnet_{k}": k for k in TRAIN_CONFIGS}
+ZOO_ENV = "MOCAPVIZ_ZOO"  # folders (os.pathsep-separated) searched first for a model by name
+
+
+def search_path(cwd=None) -> list[Path]:
+    """Folders where :func:`find_checkpoint` looks for ``<name>.safetensors``, in order: each
+    folder of ``$MOCAPVIZ_ZOO``, then ``models/zoo`` under the current directory and under each
+    of its parents (a checkout of this repository, wherever the command runs inside it)."""
+    env = [Path(p) for p in os.environ.get(ZOO_ENV, "").split(os.pathsep) if p]
+    here = Path(cwd if cwd is not None else Path.cwd()).resolve()
+    return env + [d / Path("models", "zoo") for d in (here, *here.parents)]
+
+
+def find_checkpoint(name_or_file: str, cwd=None) -> Path:
+    """A checkpoint file: ``name_or_file`` itself if it is a path (has a folder or the
+    ``.safetensors`` suffix), else ``<name>.safetensors`` in the first folder of
+    :func:`search_path` that has it. FileNotFoundError says where it looked."""
+    p = Path(name_or_file)
+    if p.suffix == ".safetensors" or len(p.parts) > 1:
+        if p.is_file():
+            return p
+        raise FileNotFoundError(f"model file not found: {p}")
+    tried = search_path(cwd)
+    for folder in tried:
+        if committed_path(name_or_file, folder).is_file():
+            return committed_path(name_or_file, folder)
+    raise FileNotFoundError(f"no model named {name_or_file!r}: looked for {name_or_file}.safetensors in "
+                            f"{', '.join(map(str, tried))}; set {ZOO_ENV} to a folder of checkpoints "
+                            "or pass a .safetensors file")
 
 
 def committed_path(name: str, zoo_dir) -> Path:

@@ -1,0 +1,93 @@
+"""The ``mocapviz`` command (also ``python -m mocapviz``).
+
+``mocapviz generate --seed walk.bvh --seconds 20 --out walk_more.bvh`` continues a user's own
+motion file with a trained model (:mod:`mocapviz.tasks.generate_bvh`). Mistakes in the
+request (a missing file, an unknown motion type, a seed too short, a skeleton that does not
+map) end with one line on stderr and exit status 2, not a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mocapviz.errors import MocapFormatError
+
+from mocapviz.skeleton import SkeletonMapError
+
+USER_ERRORS = (FileNotFoundError, MocapFormatError, SkeletonMapError)  # and GenerateError (imported with torch)
+
+
+def _generate_parser(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser("generate", help="continue a BVH (or ASF/AMC) seed with a trained model, write BVH",
+                       description="Continue your own motion file with CCNet: the output BVH holds the seed "
+                                   "frames, then the generated ones, at 60 fps on the seed's own skeleton.")
+    p.add_argument("--model", default="ccnet_default",
+                   help="a .safetensors checkpoint, or a model name looked up in $MOCAPVIZ_ZOO (mocapviz.zoo) and in "
+                        "models/zoo/ of the current folder and its parents (default: %(default)s)")
+    p.add_argument("--seed", required=True, help="the seed motion: a .bvh file, or an .amc file with --asf")
+    p.add_argument("--asf", help="the ASF skeleton of an .amc seed")
+    p.add_argument("--fps", type=float, default=120.0, help="frame rate of an .amc seed (default: %(default)s)")
+    p.add_argument("--up", choices=("y", "z", "auto"), default="y", help="the seed's up axis (default: %(default)s)")
+    p.add_argument("--joint-map", help="JSON object: seed joint name -> CCNet joint name (null to skip a joint), "
+                                       "over the automatic name map")
+    p.add_argument("--seed-seconds", type=float, default=2.0,
+                   help="seconds of the seed fed to the model (default: %(default)s)")
+    p.add_argument("--seconds", type=float, default=10.0, help="seconds to generate (default: %(default)s)")
+    p.add_argument("--type", action="append", dest="types", metavar="NAME",
+                   help="motion type (repeat it with --switch-every; default: walk)")
+    p.add_argument("--switch-every", type=float, metavar="S", help="seconds before the next --type")
+    p.add_argument("--path", help="JSON list of [x, z] ground points in metres, relative to where the seed "
+                                  "ends (world axes), resampled to one per generated frame")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--sample", dest="sample", action="store_true", help="sample each frame from the Gaussian")
+    mode.add_argument("--mean", dest="sample", action="store_false", help="take its mean (default)")
+    p.add_argument("--ik", action=argparse.BooleanOptionalAction, default=True,
+                   help="foot-contact leg IK against sliding (default: on)")
+    p.add_argument("--skeleton-z", type=float, default=3.0, metavar="Z",
+                   help="c^s is kept within Z standard deviations of the training skeletons' mean: the network "
+                        "only knows their proportions (0: their mean skeleton; inf: yours as is; default: %(default)s)")
+    p.add_argument("--random-seed", type=int, default=0, help="seed of the sampling noise (default: %(default)s)")
+    p.add_argument("--out", required=True, help="the BVH file to write")
+    p.set_defaults(run=generate)
+    return p
+
+
+def generate(args) -> None:
+    # imported here so that --help and argument errors do not wait for torch
+    from tqdm.auto import tqdm
+
+    from mocapviz.io.bvh import write_bvh
+    from mocapviz.tasks.generate_bvh import generate_from_seed, load_seed, read_json
+    from mocapviz.training.checkpoint import load_checkpoint
+    from mocapviz.zoo import find_checkpoint
+
+    model, norm, meta = load_checkpoint(find_checkpoint(args.model))
+    seed = load_seed(args.seed, args.asf, args.fps, args.up)
+    joint_map, path = read_json(args.joint_map, "joint map"), read_json(args.path, "path file")
+    result = generate_from_seed(seed, model, norm, meta, types=args.types or ["walk"], seconds=args.seconds,
+                                switch_every=args.switch_every, path_xz=path, sample=args.sample, ik=args.ik,
+                                seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
+                                skeleton_z=args.skeleton_z, progress=True)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_bvh(result.motion, out)
+    m = result.motion
+    tqdm.write(f"wrote {out}: {m.n_frames} frames at {m.fps:g} fps ({result.n_seed} seed + "
+               f"{m.n_frames - result.n_seed} generated), {m.skeleton.n_joints} joints"
+               + ("; skipped a leading T-pose frame of the seed" if seed.meta.get("tpose_frames") else ""))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="mocapviz", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    _generate_parser(sub)
+    args = parser.parse_args(argv)
+    from mocapviz.tasks.generate_bvh import GenerateError
+    try:
+        args.run(args)
+    except (*USER_ERRORS, GenerateError) as e:
+        print(f"mocapviz {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    return 0

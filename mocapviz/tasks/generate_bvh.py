@@ -1,0 +1,223 @@
+"""Generate motion from a user's own seed file and write it on the user's skeleton (BVH).
+
+The seed (BVH, or ASF/AMC) loses a leading inserted T-pose frame
+(:func:`mocapviz.io.tpose.leading_tpose_frames`), is resampled to the model's 60 fps and cut
+to ``seed_seconds``; its skeleton is mapped onto the model's joints
+(:func:`mocapviz.skeleton.map_to_ccnet25`, :class:`mocapviz.tasks.rig.ModelRig`) and aligned to
+the mean rest pose of the training skeletons; that rest pose with the file's own bone lengths
+gives c^s. :class:`mocapviz.tasks.generate.Generator`
+continues the seed; the generated frames go back onto the seed's skeleton (all its joints and
+names) and follow the seed frames in the output.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mocapviz.features.ccnet import FeatureLayout, heading_angles, motion_features
+from mocapviz.features.motion_types import one_hot
+from mocapviz.io.asfamc import read_amc
+from mocapviz.io.bvh import read_bvh
+from mocapviz.io.tpose import leading_tpose_frames
+from mocapviz.motion import Motion
+from mocapviz.skeleton import Skeleton, SkeletonMapError, map_to_ccnet25
+from mocapviz.tasks.generate import Generator
+from mocapviz.tasks.rig import ModelRig
+
+STANDARD_ORDERS = ("ZXY", "ZYX")  # rotation channel orders every BVH tool reads (Blender, MotionBuilder)
+CENTIMETRE = 0.01
+
+
+class GenerateError(ValueError):
+    """A request the command cannot carry out; the message says what to change."""
+
+
+def _need_file(path, what: str) -> Path:
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{what} not found: {path}")
+    return path
+
+
+def read_json(path, what: str):
+    """The JSON value in file ``path`` (None for no path)."""
+    if path is None:
+        return None
+    try:
+        return json.loads(_need_file(path, what).read_text())
+    except json.JSONDecodeError as e:
+        raise GenerateError(f"{what} {path} is not JSON: {e}") from None
+
+
+def load_seed(path, asf=None, fps: float = 120.0, up: str = "y") -> Motion:
+    """A seed file as a Motion (metres, Y up) without a leading inserted T-pose frame.
+
+    ``path``: a BVH, or an AMC with its ``asf``; ``fps``: the AMC's frame rate (AMC files do
+    not say); ``up``: the file's up axis ("y", "z" or "auto"). ``meta['tpose_frames']`` says
+    how many leading frames were dropped.
+    """
+    path = _need_file(path, "seed file")
+    if path.suffix.lower() == ".amc":
+        if asf is None:
+            raise GenerateError(f"{path} is an AMC file: pass its skeleton with --asf FILE.asf")
+        motion = read_amc(path, _need_file(asf, "ASF file"), fps=fps, up=up)
+    elif path.suffix.lower() == ".bvh":
+        motion = read_bvh(path, up=up)
+    else:
+        raise GenerateError(f"{path}: a seed is a .bvh file, or an .amc file with --asf")
+    skip = leading_tpose_frames(motion)
+    motion = motion[skip:]
+    motion.meta["tpose_frames"] = skip
+    return motion
+
+
+def mean_rest(normaliser) -> np.ndarray:
+    """Rest joint positions (J, 3) of the mean training skeleton, root at the origin: the mean
+    c^s without its first value, the root height (layout of :meth:`Skeleton.configuration`)."""
+    return np.concatenate([np.zeros(3), np.asarray(normaliser.skel_mean[1:], dtype=np.float64)]).reshape(-1, 3)
+
+
+def rotation_stats(normaliser, n_joints: int) -> tuple[np.ndarray, np.ndarray]:
+    """Training mean and standard deviation (J, 3) of each joint's local exp map (the frame
+    vector's ``rot`` block; the root's is relative to its heading)."""
+    rot = FeatureLayout(n_joints).x_blocks["rot"]
+    return (np.asarray(normaliser.x_mean[rot], dtype=np.float64).reshape(n_joints, 3),
+            np.asarray(normaliser.x_std[rot], dtype=np.float64).reshape(n_joints, 3))
+
+
+@dataclass
+class SeedGeneration:
+    motion: Motion          # the seed's skeleton: seed frames, then generated ones (model fps)
+    n_seed: int             # how many of its frames are the seed's
+    model_motion: Motion    # the generated frames on the model's skeleton (what the rig maps back)
+    rig: ModelRig
+
+
+def type_schedule(types, known, n_seed: int, n_gen: int, switch_every: float | None, fps: float) -> np.ndarray:
+    """One-hot motion types (n_seed + n_gen, n_types): the seed frames and the first
+    ``switch_every`` seconds of generation take ``types[0]``, then each next type in turn."""
+    unknown = [t for t in types if t not in known]
+    if unknown:
+        raise GenerateError(f"unknown motion type {unknown[0]!r}; known: {', '.join(known)}")
+    if len(types) > 1 and not switch_every:
+        raise GenerateError(f"{len(types)} motion types need --switch-every SECONDS")
+    idx = np.zeros(n_seed + n_gen, dtype=np.int64)
+    if len(types) > 1:
+        period = max(1, int(round(switch_every * fps)))
+        idx[n_seed:] = (np.arange(n_gen) // period) % len(types)
+    return one_hot([list(known).index(types[i]) for i in idx], len(known))
+
+
+def path_points(path_xz, n_gen: int) -> np.ndarray:
+    """``path_xz`` (N, 2) resampled to one point per generated frame (n_gen, 2), linearly
+    along the point index (N == n_gen keeps them as given)."""
+    path_xz = np.asarray(path_xz, dtype=np.float64)
+    if path_xz.ndim != 2 or path_xz.shape[1] != 2 or len(path_xz) < 2:
+        raise GenerateError(f"a path is a list of at least two [x, z] points, got shape {path_xz.shape}")
+    at = np.linspace(0, len(path_xz) - 1, n_gen)
+    return np.stack([np.interp(at, np.arange(len(path_xz)), path_xz[:, k]) for k in (0, 1)], axis=1)
+
+
+def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk",), seconds: float = 10.0,
+                       switch_every: float | None = None, path_xz=None, sample: bool = False, ik: bool = True,
+                       seed_seconds: float = 2.0, joint_map=None, rng_seed: int = 0, skeleton_z: float = 3.0,
+                       progress: bool = False) -> SeedGeneration:
+    """Continue ``seed`` (a Motion on any skeleton, e.g. from :func:`load_seed`) for ``seconds``.
+
+    ``model``, ``normaliser``, ``meta``: a loaded checkpoint (its ``meta['dataset']`` gives the
+    joints, fps and motion types); ``types``: motion type names, switched every
+    ``switch_every`` seconds; ``path_xz`` (N, 2): ground points in metres (world X, Z) relative
+    to the seed's last root position, resampled to one per generated frame (default: the
+    network's own trajectory); ``joint_map``: file joint -> CCNet joint (dict or JSON file),
+    over the automatic name map; ``skeleton_z``: how far (training standard deviations) c^s
+    may lie from the training skeletons' mean (see :func:`limit_skeleton`).
+
+    The network sees the seed scaled to the training skeletons' mean root height (the output
+    is scaled back): a committed model trained on ~20 VICON skeletons crouched to half height
+    from a Bandai seed's own c^s (10 standard deviations out at the hips) and stood with it
+    limited to 3.
+    """
+    ds = meta["dataset"]
+    fps, known = float(ds["fps"]), tuple(ds["motion_types"])
+    need = model.cfg.receptive_field + 1  # frame vectors start at the second frame
+    try:
+        names = map_to_ccnet25(seed.skeleton.names, joint_map)
+    except SkeletonMapError as e:
+        raise GenerateError(f"{e} (on the command line: --joint-map FILE.json)") from None
+    seed60 = seed if abs(seed.fps - fps) < 1e-6 else seed.resample(fps)
+    n_seed = min(seed60.n_frames, int(round(seed_seconds * fps)))
+    if n_seed < need:
+        raise GenerateError(f"the seed is too short: {n_seed} frames at {fps:g} fps ({n_seed / fps:.2f} s), "
+                            f"the model needs at least {need} ({need / fps:.2f} s, its receptive field + 1)")
+    seed60 = seed60[:n_seed]
+    rig = ModelRig(seed60, names, ds["joint_names"], ds["parents"], canonical_rest=mean_rest(normaliser),
+                   rotation_stats=rotation_stats(normaliser, len(ds["joint_names"])))
+    seed_m = rig.to_model(seed60)
+    # the network knows the sizes of its training skeletons only: it sees the seed scaled to
+    # their mean root height, and c^s within skeleton_z standard deviations of their mean
+    size = float(normaliser.skel_mean[0] / seed_m.skeleton.configuration()[0])
+    seen = _scaled(seed_m, size)
+    feats = motion_features(seen, fps)
+    n_gen = int(round(seconds * fps))
+    types_oh = type_schedule(list(types), known, len(feats.x), n_gen, switch_every, fps)
+    theta = heading_angles(seen.positions(), seen.skeleton)
+    end_root, end_heading = seen.root_positions[-1], float(theta[-1])
+    path = None
+    if path_xz is not None:
+        ahead = path_points(path_xz, n_gen) * size + end_root[[0, 2]]
+        path = np.concatenate([seen.root_positions[1:, [0, 2]], ahead])[None]
+    gen = Generator(model, normaliser, sample=sample, seed=rng_seed).run(
+        feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
+        seed_traj=feats.traj[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
+        progress=progress)
+    gen_m = _scaled(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,
+                               include_seed=False), 1 / size)
+    out = _concat(seed60, rig.from_model(gen_m))
+    return SeedGeneration(out, n_seed, gen_m, rig)
+
+
+def limit_skeleton(skel: np.ndarray, normaliser, z: float) -> np.ndarray:
+    """c^s (n_skel,) clipped to within ``z`` training standard deviations of the training
+    mean, per value (``z = 0``: the mean training skeleton; ``inf``: unchanged)."""
+    dev = np.clip((skel - normaliser.skel_mean) / normaliser.skel_std, -z, z)
+    return (normaliser.skel_mean + dev * normaliser.skel_std).astype(np.float32)
+
+
+def _scaled(motion: Motion, k: float) -> Motion:
+    """The motion ``k`` times as large about the world origin (offsets, end sites and root;
+    rotations unchanged)."""
+    sk = motion.skeleton
+    ends = tuple((j, tuple(k * np.asarray(off))) for j, off in sk.end_sites)
+    return Motion(Skeleton(sk.names, sk.parents, k * sk.offsets, ends), motion.rotations, k * motion.root_positions,
+                  motion.fps, name=motion.name, meta=dict(motion.meta))
+
+
+def _concat(seed: Motion, generated: Motion) -> Motion:
+    """Seed frames then generated frames, one skeleton; meta says how to write the file."""
+    trans = {j: np.concatenate([seed.translations[j], generated.translations[j]]) for j in generated.translations}
+    meta = {"length_unit": seed.meta.get("length_unit", CENTIMETRE) if seed.meta.get("format") == "bvh"
+            else CENTIMETRE, "source": seed.meta.get("source", "")}
+    if "channels" in seed.meta:
+        meta["channels"] = _standard_channels(seed.meta["channels"])
+        meta["root_offset"] = seed.meta.get("root_offset", np.zeros(3))
+    return Motion(seed.skeleton, np.concatenate([seed.rotations, generated.rotations]),
+                  np.concatenate([seed.root_positions, generated.root_positions]), seed.fps,
+                  name=seed.name + "_generated", meta=meta, translations=trans)
+
+
+def _standard_channels(channels: list[list[str]]) -> list[list[str]]:
+    """The seed file's channel layout, position channels on the root, rotation orders other
+    than ZXY/ZYX written as ZYX."""
+    out = []
+    for j, chans in enumerate(channels):
+        pos = [c for c in chans if c.endswith("position")] or (["xposition", "yposition", "zposition"] if j == 0 else [])
+        rot = [c for c in chans if c.endswith("rotation")]
+        order = "".join(c[0].upper() for c in rot)
+        if rot and order not in STANDARD_ORDERS:
+            rot = ["zrotation", "yrotation", "xrotation"]
+        out.append(pos + rot)
+    return out

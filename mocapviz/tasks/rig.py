@@ -1,0 +1,252 @@
+"""A file's own skeleton mapped onto a model's joints (CCNet's 25), both ways.
+
+A user's skeleton rarely has exactly the model's joints. With a joint map (file joint -> model
+joint, :func:`mocapviz.skeleton.map_to_ccnet25`) the file's joints are of three kinds:
+
+- **mapped**: the model joint takes the file joint's *global* rotation and position;
+- **unmapped** (fingers, a reference root, a 3dsMax ``Chest3`` between two mapped spine
+  joints): each keeps one fixed local rotation and translation, its mean over the reference
+  motion. A model bone that spans such joints is their composed chain, so it keeps its length
+  and shape whatever the model does;
+- **missing** model joints (Bandai has no ``LHipJoint``, ``LowerBack``, ``Neck1``): made up as
+  a joint that takes the whole file bone to its one model child, the child sitting at zero
+  offset below it. The made-up joint's rotation then moves nothing (its only child is at its
+  own position), so whatever the model writes there is lost without changing any position.
+
+Rest pose: a file's local rotations are relative to *its* rest pose (Bandai's lies along X,
+Mixamo's stands straight-legged, CMU's splays the legs), and a model reads them as relative to
+the rest pose of its training skeletons. Given that rest pose (``canonical_rest``, e.g. the
+mean c^s of the training data), each mapped joint gets a constant alignment rotation A_c that
+turns the model's rest directions of its bones onto the file's (a best fit, scipy's
+``align_vectors``, where a joint has bones in several directions; the shortest arc after its
+parent's alignment where it has one, so that twist is carried down the chain, then turned
+about the bone by the twist that brings the reference motion's rotations nearest the
+training statistics when those are given, since a straight rest bone cannot show its twist;
+its parent's where it has none). The model joint's global rotation is then the file joint's times A_c, and
+the model skeleton's offsets are the file's bones turned by A_c^T: the file's bone lengths in
+the training skeletons' rest directions, which is what c^s shows the model.
+
+So the mapping back (:meth:`ModelRig.from_model`) is exact: forward kinematics of the file
+skeleton at the mapped joints equals the model skeleton's joint positions. Why global, not
+local rotations: when joints are dropped in between, the model joint's local rotation is the
+product of the file's locals along the chain; matching global rotations carries it over
+whatever the chain, with the dropped joints held fixed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from mocapviz.heading import shortest_arc
+from mocapviz.motion import Motion
+from mocapviz.rotations import matrix_to_rotvec, rotvec_to_matrix
+from mocapviz.skeleton import Skeleton, SkeletonMapError
+
+
+def _mean_rotation(mats: np.ndarray) -> np.ndarray:
+    """Mean (3, 3) of rotation matrices (F, 3, 3) (scipy's quaternion mean)."""
+    return Rotation.from_matrix(mats).mean().as_matrix()
+
+
+def _to_local(g: np.ndarray, parents: np.ndarray) -> np.ndarray:
+    """Local rotations (F, J, 3, 3) from global ones: L_j = G_parent^T G_j."""
+    local = g.copy()
+    local[:, 1:] = np.swapaxes(g[:, parents[1:]], -1, -2) @ g[:, 1:]
+    return local
+
+
+class ModelRig:
+    """``reference``: a motion on the file's skeleton (its mean pose fixes the unmapped joints);
+    ``joint_map``: file joint name -> model joint name; ``names``, ``parents``: the model's
+    joint tree (topological order, root first); ``canonical_rest`` (J, 3): the model's rest
+    joint positions (metres, root at the origin) that the file's rest is aligned to (None:
+    the file's own rest pose, no alignment); ``rotation_stats``: the model's training mean and
+    standard deviation (J, 3) of each joint's local exp map. With them a made-up joint takes its
+    mean rotation when a file motion goes to the model (so the file bone's rotation is split
+    between it and its child as in training), and a joint aligned along one bone gets the twist
+    about that bone (which a rest pose cannot show) that brings the reference motion's local
+    rotations closest to training (z-scores, greedily from the root down)."""
+
+    def __init__(self, reference: Motion, joint_map: dict[str, str], names, parents, canonical_rest=None,
+                 rotation_stats=None):
+        sk = self.file_skeleton = reference.skeleton
+        self.names, self.parents = tuple(names), np.asarray(parents, dtype=np.int64)
+        by_model = {m: sk.index(f) for f, m in joint_map.items()}
+        self.source = np.array([by_model.get(n, -1) for n in self.names])  # file joint of each model joint
+        if self.source[0] < 0:
+            raise SkeletonMapError(f"no file joint maps to the model's root {self.names[0]!r}")
+        self.fixed_rot = np.array([_mean_rotation(reference.rotations[:, j]) for j in range(sk.n_joints)])
+        self.fixed_trans = sk.offsets.copy()
+        self.translated = sorted(reference.translations)  # joints with per-frame translations
+        for j, t in reference.translations.items():
+            self.fixed_trans[j] = t.mean(axis=0)
+        identity = np.broadcast_to(np.eye(3), (len(self.names), 3, 3))
+        self.stats = None if rotation_stats is None else [np.asarray(a, dtype=np.float64) for a in rotation_stats]
+        self.made_up_rot = identity if self.stats is None else rotvec_to_matrix(self.stats[0])
+        self.align = identity.copy()  # A_c per model joint
+        if canonical_rest is not None:
+            self.align = self._alignments(np.asarray(canonical_rest, dtype=np.float64), reference)
+        self.skeleton = Skeleton(self.names, self.parents, *self._model_rest())
+
+    def _chain(self, top: int, j: int) -> np.ndarray:
+        """Vector (3,) from file joint ``top`` to its descendant ``j`` in ``top``'s frame, the
+        joints between at their fixed rotation and translation."""
+        return self._chain_pose(top, j)[0]
+
+    def _chain_pose(self, top: int, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_chain` and the rotation (3, 3) of ``j``'s parent frame in ``top``'s frame."""
+        mapped = set(self.source[self.source >= 0].tolist())
+        v, k, rot = self.fixed_trans[j], int(self.file_skeleton.parents[j]), np.eye(3)
+        while k != top:
+            if k < 0 or k in mapped:
+                sk = self.file_skeleton
+                raise SkeletonMapError(f"the joint map breaks the tree: {sk.names[j]!r} is not below "
+                                       f"{sk.names[top]!r} without another mapped joint in between")
+            v = self.fixed_trans[k] + self.fixed_rot[k] @ v
+            rot = self.fixed_rot[k] @ rot
+            k = int(self.file_skeleton.parents[k])
+        return v, rot
+
+    def _nearest_mapped_above(self, c: int) -> int:
+        above = self.parents[c]
+        while self.source[above] < 0:  # the root is mapped
+            above = self.parents[above]
+        return int(above)
+
+    def _file_rest(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rest positions (J, 3) of the model joints on the file's skeleton (mapped joints at
+        identity, the others fixed; made-up joints where they sit, see :meth:`_model_rest`),
+        and the rest frames (J, 3, 3) of the mapped ones, in the model root's frame."""
+        n, src = len(self.names), self.source
+        pos, frame = np.zeros((n, 3)), np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+        for c in range(1, n):
+            if src[c] >= 0:
+                a = self._nearest_mapped_above(c)
+                v, rot = self._chain_pose(int(src[a]), int(src[c]))
+                pos[c], frame[c] = pos[a] + frame[a] @ v, frame[a] @ rot
+        for c in range(n - 1, 0, -1):  # made-up joints sit on their child (a leaf: its parent's end site)
+            if src[c] < 0:
+                kids = np.flatnonzero(self.parents == c)
+                pos[c] = pos[kids[0]] if len(kids) else pos[self.parents[c]] + frame[self.parents[c]] @ self._tip(c)
+        return pos, frame
+
+    def _alignments(self, canonical: np.ndarray, reference: Motion) -> np.ndarray:
+        """A_c (J, 3, 3): model rest directions -> the file's, per mapped joint (module docstring)."""
+        n, src = len(self.names), self.source
+        pos, frame = self._file_rest()
+        file_global = reference.global_pose()[1]
+        model_global = np.empty((reference.n_frames, n, 3, 3))  # G'_c of the reference, as A_c are chosen
+        kids = [np.flatnonzero(self.parents == c) for c in range(n)]
+        align = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+        for c in range(n):
+            base = align[self.parents[c]] if c else np.eye(3)
+            if src[c] < 0:
+                align[c] = base
+                model_global[:, c] = model_global[:, self.parents[c]] @ self.made_up_rot[c]
+                continue
+            model_dirs, file_dirs = [], []
+            for k in kids[c]:  # each bone's direction: the first joint down its chain 5 cm away
+                d = int(k)
+                while (np.linalg.norm(canonical[d] - canonical[c]) < 0.05
+                       or np.linalg.norm(pos[d] - pos[c]) < 0.05) and len(kids[d]):
+                    d = int(kids[d][0])
+                m, f = canonical[d] - canonical[c], frame[c].T @ (pos[d] - pos[c])
+                if np.linalg.norm(m) > 1e-6 and np.linalg.norm(f) > 1e-6:
+                    model_dirs.append(m / np.linalg.norm(m))
+                    file_dirs.append(f / np.linalg.norm(f))
+            spread = max((np.linalg.norm(np.cross(a, b)) for a in model_dirs for b in model_dirs), default=0.0)
+            if spread > 0.2:  # bones in several directions (hips): the best-fitting rotation
+                align[c] = Rotation.align_vectors(np.array(file_dirs), np.array(model_dirs))[0].as_matrix()
+            elif model_dirs:  # one direction: the shortest arc after the parent's alignment
+                m, f = np.mean(model_dirs, axis=0), np.mean(file_dirs, axis=0)
+                align[c] = shortest_arc(base @ m, f) @ base
+                if self.stats is not None and c > 0:
+                    align[c] = align[c] @ self._best_twist(c, m, model_global[:, self.parents[c]],
+                                                           file_global[:, src[c]] @ align[c])
+            else:
+                align[c] = base
+            model_global[:, c] = file_global[:, src[c]] @ align[c]
+        return align
+
+    def _best_twist(self, c: int, axis: np.ndarray, parent_global: np.ndarray, global_rot: np.ndarray,
+                    steps: int = 72) -> np.ndarray:
+        """Rotation (3, 3) about the model bone ``axis`` (a twist that keeps the bone's
+        direction) whose local rotations parent^T global twist lie nearest the training mean,
+        in z-scores, over the reference frames; a grid of ``steps`` angles."""
+        twists = Rotation.from_rotvec(np.outer(np.arange(steps) * 2 * np.pi / steps, axis)).as_matrix()
+        local = np.swapaxes(parent_global, -1, -2) @ global_rot                     # (F, 3, 3)
+        cand = matrix_to_rotvec(local[None] @ twists[:, None])                     # (steps, F, 3)
+        mean, std = self.stats[0][c], np.maximum(self.stats[1][c], 1e-3)
+        score = (((cand - mean) / std) ** 2).sum(-1).mean(-1)
+        return twists[int(np.argmin(score))]
+
+    def _tip(self, c: int) -> np.ndarray:
+        """A missing leaf's offset in its mapped parent's file frame: the parent's end site."""
+        fsk, p = self.file_skeleton, int(self.source[self.parents[c]])
+        tips = [off for j, off in fsk.end_sites if j == p]
+        if p < 0 or not tips:
+            raise SkeletonMapError(f"the file has no joint for {self.names[c]!r} and no end site to put it at")
+        return np.asarray(tips[0], dtype=np.float64)
+
+    def _model_rest(self):
+        """Offsets (J, 3) and end sites of the model skeleton: the file's bones turned by the
+        alignment A^T; a made-up joint takes the whole file bone to its one model child, which
+        sits at zero offset below it (so the made-up joint's rotation moves nothing)."""
+        names, parents, src, fsk, align = self.names, self.parents, self.source, self.file_skeleton, self.align
+        offsets = np.zeros((len(names), 3))
+        kids = [np.flatnonzero(parents == c).tolist() for c in range(len(names))]
+        ends = []
+        for c in range(1, len(names)):
+            if src[c] < 0:
+                if len(kids[c]) > 1 or (not kids[c] and src[parents[c]] < 0):
+                    raise SkeletonMapError(f"the file has no joint for {names[c]!r}, which cannot be made up "
+                                           f"({len(kids[c])} children); map one with the explicit joint map")
+                if not kids[c]:  # a missing leaf (a toe): at its parent's end site in the file
+                    offsets[c] = align[parents[c]].T @ self._tip(c)
+                continue
+            above = self._nearest_mapped_above(c)
+            top = c
+            while parents[top] != above:  # the made-up joint right below it takes the whole bone
+                top = parents[top]
+            offsets[top] = align[above].T @ self._chain(int(src[above]), int(src[c]))
+            ends += [(c, tuple(align[c].T @ np.asarray(off))) for j, off in fsk.end_sites if j == src[c]]
+            file_kids = fsk.children(int(src[c]))
+            if file_kids and not kids[c]:  # children dropped (hands): an end site where the first was
+                ends.append((c, tuple(align[c].T @ self.fixed_trans[file_kids[0]])))
+        return offsets, tuple(ends)
+
+    def to_model(self, motion: Motion) -> Motion:
+        """The model-skeleton motion (same frames) of a motion on the file's skeleton: mapped
+        joints take their file joint's global rotation (times A_c), made-up joints their
+        parent's times ``made_up_rotations``."""
+        p, g = motion.global_pose()
+        gm = np.empty((motion.n_frames, len(self.names), 3, 3))
+        for c, s in enumerate(self.source):
+            gm[:, c] = g[:, s] @ self.align[c] if s >= 0 else gm[:, self.parents[c]] @ self.made_up_rot[c]
+        return Motion(self.skeleton, _to_local(gm, self.parents), p[:, self.source[0]], motion.fps,
+                      name=motion.name, meta={"source": motion.meta.get("source", "")})
+
+    def from_model(self, motion: Motion) -> Motion:
+        """The file-skeleton motion of a model-skeleton motion: exact at the mapped joints
+        (global rotations and positions), the unmapped joints at their fixed pose."""
+        pm, gm = motion.global_pose()
+        fsk, n = self.file_skeleton, motion.n_frames
+        g = np.empty((n, fsk.n_joints, 3, 3))
+        p = np.empty((n, fsk.n_joints, 3))
+        model_of = {int(s): c for c, s in enumerate(self.source) if s >= 0}
+        root_src = int(self.source[0])
+        if root_src != 0:  # unmapped joints above the model's root: placed so that it lands right
+            g[:, 0] = self.fixed_rot[0]
+            p[:, 0] = pm[:, 0] - self.fixed_rot[0] @ self._chain(0, root_src)
+        for j in range(fsk.n_joints):
+            if j in model_of:
+                c = model_of[j]
+                g[:, j], p[:, j] = gm[:, c] @ self.align[c].T, pm[:, c]
+            elif j > 0:
+                q = fsk.parents[j]
+                g[:, j] = g[:, q] @ self.fixed_rot[j]
+                p[:, j] = p[:, q] + g[:, q] @ self.fixed_trans[j]
+        trans = {j: np.einsum("fji,fj->fi", g[:, fsk.parents[j]], p[:, j] - p[:, fsk.parents[j]])
+                 for j in self.translated}
+        return Motion(fsk, _to_local(g, fsk.parents), p[:, 0], motion.fps, name=motion.name, translations=trans)
