@@ -16,6 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from mocapviz.heading import shortest_arc
+from mocapviz.kinematics import global_to_local
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
 
@@ -27,14 +28,6 @@ FEET = (("LeftFoot", "LeftToeBase"), ("RightFoot", "RightToeBase"))
 def foot_joints(skeleton: Skeleton, feet=FEET) -> list[list[int]]:
     """Joint indices of each foot (``[[left ankle, left toe], [right ankle, right toe]]``)."""
     return [[skeleton.index(n) for n in foot] for foot in feet]
-
-
-def global_to_local(global_rotations: np.ndarray, parents) -> np.ndarray:
-    """Local rotations (..., J, 3, 3) from global ones (the inverse of FK's rotation part)."""
-    parents = np.asarray(parents)
-    local = np.array(global_rotations, copy=True)
-    local[..., 1:, :, :] = np.swapaxes(global_rotations[..., parents[1:], :, :], -1, -2) @ global_rotations[..., 1:, :, :]
-    return local
 
 
 def two_bone_ik(global_rotations: np.ndarray, positions: np.ndarray, skeleton: Skeleton, targets: dict,

@@ -66,3 +66,11 @@ def foot_contacts(positions: np.ndarray, fps: float, feet: list[list[int]], up_a
             ground = np.percentile(height[:, j], 2) if floor is None else floor
             labels[:, i] |= (height[:, j] - ground < height_threshold) & (speed[:, j] < speed_threshold)
     return labels
+
+
+def global_to_local(global_rotations: np.ndarray, parents) -> np.ndarray:
+    """Local rotations (..., J, 3, 3) from global ones (the inverse of FK's rotation part)."""
+    parents = np.asarray(parents)
+    local = np.array(global_rotations, copy=True)
+    local[..., 1:, :, :] = np.swapaxes(global_rotations[..., parents[1:], :, :], -1, -2) @ global_rotations[..., 1:, :, :]
+    return local

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mocapviz.ik import LEGS, global_to_local, two_bone_ik
+from mocapviz.ik import LEGS, two_bone_ik
 from mocapviz.io.bvh import read_bvh
-from mocapviz.kinematics import forward_kinematics
+from mocapviz.kinematics import forward_kinematics, global_to_local
 
 
 @pytest.fixture(scope="module")

@@ -26,6 +26,7 @@ from mocapviz.bodies.anny_model import BodyModel
 from mocapviz.bodies.retarget import STATIC_JOINTS
 from mocapviz.features.cycles import MAX_CYCLE_S
 from mocapviz.heading import rotation_heading, yaw_matrix
+from mocapviz.kinematics import global_to_local
 from mocapviz.rotations import matrix_to_sixd, sixd_to_matrix
 
 N_FRAMES = 100
@@ -130,6 +131,4 @@ def chi_from_mesh(body: BodyModel, beta, vertices, times: np.ndarray, gamma_scal
     for j in range(1, body.n_joints):
         if j not in kept:
             glob[:, j] = glob[:, parents[j]]
-    local = glob.copy()
-    local[:, 1:] = np.swapaxes(glob[:, parents[1:]], -1, -2) @ glob[:, 1:]
-    return encode(local, root, times, kept, gamma_scale)
+    return encode(global_to_local(glob, parents), root, times, kept, gamma_scale)

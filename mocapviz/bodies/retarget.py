@@ -34,8 +34,8 @@ import warnings
 import numpy as np
 
 from mocapviz.heading import shortest_arc
-from mocapviz.ik import FEET, LEGS, foot_joints, global_to_local, two_bone_ik
-from mocapviz.kinematics import foot_contacts, forward_kinematics
+from mocapviz.ik import FEET, LEGS, foot_joints, two_bone_ik
+from mocapviz.kinematics import foot_contacts, forward_kinematics, global_to_local
 from mocapviz.metrics import foot_sliding, joint_position_errors
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton

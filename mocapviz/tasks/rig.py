@@ -39,6 +39,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mocapviz.heading import shortest_arc
+from mocapviz.kinematics import global_to_local
 from mocapviz.motion import Motion
 from mocapviz.rotations import matrix_to_rotvec, rotvec_to_matrix
 from mocapviz.skeleton import Skeleton, SkeletonMapError
@@ -47,13 +48,6 @@ from mocapviz.skeleton import Skeleton, SkeletonMapError
 def _mean_rotation(mats: np.ndarray) -> np.ndarray:
     """Mean (3, 3) of rotation matrices (F, 3, 3) (scipy's quaternion mean)."""
     return Rotation.from_matrix(mats).mean().as_matrix()
-
-
-def _to_local(g: np.ndarray, parents: np.ndarray) -> np.ndarray:
-    """Local rotations (F, J, 3, 3) from global ones: L_j = G_parent^T G_j."""
-    local = g.copy()
-    local[:, 1:] = np.swapaxes(g[:, parents[1:]], -1, -2) @ g[:, 1:]
-    return local
 
 
 class ModelRig:
@@ -224,7 +218,7 @@ class ModelRig:
         gm = np.empty((motion.n_frames, len(self.names), 3, 3))
         for c, s in enumerate(self.source):
             gm[:, c] = g[:, s] @ self.align[c] if s >= 0 else gm[:, self.parents[c]] @ self.made_up_rot[c]
-        return Motion(self.skeleton, _to_local(gm, self.parents), p[:, self.source[0]], motion.fps,
+        return Motion(self.skeleton, global_to_local(gm, self.parents), p[:, self.source[0]], motion.fps,
                       name=motion.name, meta={"source": motion.meta.get("source", "")})
 
     def from_model(self, motion: Motion) -> Motion:
@@ -249,4 +243,4 @@ class ModelRig:
                 p[:, j] = p[:, q] + g[:, q] @ self.fixed_trans[j]
         trans = {j: np.einsum("fji,fj->fi", g[:, fsk.parents[j]], p[:, j] - p[:, fsk.parents[j]])
                  for j in self.translated}
-        return Motion(fsk, _to_local(g, fsk.parents), p[:, 0], motion.fps, name=motion.name, translations=trans)
+        return Motion(fsk, global_to_local(g, fsk.parents), p[:, 0], motion.fps, name=motion.name, translations=trans)
