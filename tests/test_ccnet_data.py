@@ -143,11 +143,17 @@ def test_bandai_features_round_trip_to_poses(ds, full_catalog):
         np.testing.assert_allclose(p[:, m.skeleton.index(name)], p[:, 0], atol=1e-12)
     np.testing.assert_allclose(p[:, m.skeleton.index("Neck1")],
                                (p[:, m.skeleton.index("Neck")] + p[:, m.skeleton.index("Head")]) / 2, atol=1e-12)
-    # rest pose: a T-pose facing +Z like CMU's (legs down, arms out to the sides, feet forward)
-    rest = m.skeleton.rest_positions()
+    # rest pose: the VICON T-pose facing +Z of HDM05/CMU (legs splayed 20 degrees, arms out to
+    # the sides, feet forward); compared with a CMU skeleton's rest, bone by bone
+    from data_prep.catalog import load_motion as load
+    cmu = feat.prepare_motion(load(full_catalog[full_catalog["clip"] == "35_01"].iloc[0])[:2]).skeleton
+    rest, cmu_rest = m.skeleton.rest_positions(), cmu.rest_positions()
     j = m.skeleton.index
-    np.testing.assert_allclose(rest[j("LeftFoot")] - rest[j("LeftUpLeg")],
-                               [0, -np.linalg.norm(rest[j("LeftFoot")] - rest[j("LeftUpLeg")]), 0], atol=1e-9)
+    for a, b in (("LeftUpLeg", "LeftLeg"), ("RightLeg", "RightFoot"), ("LeftArm", "LeftForeArm"),
+                 ("RightForeArm", "RightHand"), ("Spine", "Spine1")):
+        u, v = rest[j(b)] - rest[j(a)], cmu_rest[cmu.index(b)] - cmu_rest[cmu.index(a)]
+        angle = np.degrees(np.arccos(u @ v / np.linalg.norm(u) / np.linalg.norm(v)))
+        assert angle < 7.0, (a, b, angle)
     assert rest[j("LeftHand"), 0] - rest[j("LeftArm"), 0] > 0.4 > abs(rest[j("LeftHand"), 1] - rest[j("LeftArm"), 1])
     assert rest[j("RightHand"), 0] - rest[j("RightArm"), 0] < -0.4
     assert rest[j("LeftToeBase"), 2] - rest[j("LeftFoot"), 2] > 0.1

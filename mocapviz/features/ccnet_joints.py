@@ -2,14 +2,14 @@
 
 CCNet's frame vector holds *local* rotations, so they mean the same thing for every source
 only if every skeleton's rest pose (all rotations identity) is the same kind of pose with
-world-aligned joint frames. HDM05 and CMU rest in a T-pose facing +Z (Y up, left = +X) with
-identity joint frames. Bandai's rest pose is a rig pose (every bone along its parent's
+world-aligned joint frames. HDM05 and CMU rest in the VICON T-pose facing +Z (Y up, left = +X,
+legs splayed 20 degrees) with identity joint frames. Bandai's rest pose is a rig pose (every bone along its parent's
 local +-X, the body folded flat), so its rotations are ~90 degrees off everywhere, and it lacks
 four of the 25 joints. Two steps fix that, both leaving every FK joint position unchanged:
 
 * :func:`rest_alignment` + :func:`rebase_rest`: constant per-joint frame changes ``A_j``
   (``G'_j = G_j A_j^T``, ``L'_j = A_parent L_j A_j^T``, offsets ``A_parent o_j``) that make a
-  given reference frame of the motion, straightened into the T-pose of
+  given reference frame of the motion, straightened into the VICON rest pose of
   :data:`T_POSE_DIRECTIONS`, the new rest pose. The reference frame fixes each bone's twist
   (which way an elbow bends), which bone directions alone cannot.
 * :func:`complete_ccnet25`: joints of the 25 a skeleton lacks are inserted with identity
@@ -40,11 +40,17 @@ CCNET_25_PARENTS = {
 }
 # Zero-length joints in every VICON tree: inserted at their parent.
 ZERO_LENGTH_JOINTS = ("LHipJoint", "RHipJoint", "LowerBack")
-# Bone directions (joint -> child) of the T-pose the rebased rest pose takes (facing +Z, Y up,
-# left = +X): legs straight down, feet forward, spine and neck up, clavicles and arms out.
+# Bone directions (joint -> child) of the rest pose re-based skeletons take (facing +Z, Y up,
+# left = +X): the VICON rest of every HDM05 and CMU skeleton here, so that a local rotation
+# poses a limb alike in every source: thighs and shins splayed 20 degrees out, spine and neck
+# up, clavicles and arms straight out. Feet are not straightened (like hands, head and toes,
+# they keep their reference orientation relative to the shin): the toe joint sits elsewhere in
+# each rig (Bandai's foot bone points 40 degrees down when it stands flat, CMU's ~18), and so
+# standing flat stays a near-identity ankle rotation, as in HDM05 and CMU.
+_SPLAY = np.radians(20.0)
 T_POSE_DIRECTIONS = {
-    **{f"{s}{j}": (0.0, -1.0, 0.0) for s in ("Left", "Right") for j in ("UpLeg", "Leg")},
-    "LeftFoot": (0.0, 0.0, 1.0), "RightFoot": (0.0, 0.0, 1.0),
+    **{f"Left{j}": (np.sin(_SPLAY), -np.cos(_SPLAY), 0.0) for j in ("UpLeg", "Leg")},
+    **{f"Right{j}": (-np.sin(_SPLAY), -np.cos(_SPLAY), 0.0) for j in ("UpLeg", "Leg")},
     **{j: (0.0, 1.0, 0.0) for j in ("LowerBack", "Spine", "Neck", "Neck1")},
     **{f"Left{j}": (1.0, 0.0, 0.0) for j in ("Shoulder", "Arm", "ForeArm")},
     **{f"Right{j}": (-1.0, 0.0, 0.0) for j in ("Shoulder", "Arm", "ForeArm")},
@@ -74,8 +80,8 @@ def rest_alignment(skeleton: Skeleton, positions: np.ndarray, rotations: np.ndar
     straightened into :data:`T_POSE_DIRECTIONS` by the smallest rotation per bone.
 
     The pelvis frame (spine up, hips across) is turned onto the world axes first, so that the
-    reference frame's heading does not matter. Joints without a bone of their own (hands, head,
-    toes) keep their reference orientation relative to their parent.
+    reference frame's heading does not matter. Joints without a direction there (feet, hands,
+    head, toes) keep their reference orientation relative to their parent.
     """
     names = skeleton.names
     hips_up, (l, r) = _FRAME_JOINTS["Hips"]
