@@ -82,7 +82,7 @@ print("pyvista backend:", scene.set_notebook_backend(QUICK))
 # kick mapped in: run → jog, jump → hop, kick → kick; CMU walk is its own type).
 
 # %%
-ds = build_dataset(DatasetConfig(), progress=False)
+ds = build_dataset(DatasetConfig.quick() if QUICK else DatasetConfig(), progress=False)
 layout = ds.layout
 display(pd.DataFrame(layout.table(), columns=["block", "start", "stop", "unit"]))
 m = ds.meta
@@ -260,7 +260,8 @@ for label, g in generated.items():
 
 # %%
 secs = 10 if QUICK else 60
-test_rows = ds.clips[(ds.clips.split == "test") & ((ds.clips.stop - ds.clips.start) >= 62)]
+test_rows = ds.clips[(ds.clips.split == "test") & ((ds.clips.stop - ds.clips.start) >= 62)
+                     & (ds.clips.type_index < cfg.n_types)]  # types the model knows (its vocabulary)
 rows = test_rows.assign(o=test_rows.groupby("type").cumcount()).sort_values(["o", "type"]).index[:10]
 arrs = [ds.clip_arrays(int(i)) for i in rows]
 g10 = Generator(model, norm, batch=len(arrs)).run(

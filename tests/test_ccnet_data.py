@@ -250,3 +250,21 @@ def test_type_vocabulary_is_stored_and_old_checkpoints_keep_their_indices(ds):
     gen = Generator(model, norm).run(a["x"][None, :60], a["skel"][None], one_hot([a["type_index"]], model.cfg.n_types),
                                      30, seed_traj=a["traj"][None, :60])
     assert gen.x.shape[1] == 90 and np.isfinite(gen.x).all()
+
+
+def test_contact_labels_on_bandai_gait_look_like_the_other_sources(full_catalog, data_dir):
+    """The contact thresholds (tuned on HDM05/CMU) on Bandai at 60 fps: a walk has each foot down
+    about 60 % of the time and never both feet up; a run has short stances and flight phases
+    (both feet up), as CMU's walk and run at the same thresholds (figure checked by eye)."""
+    from data_prep.ccnet_dataset import load_ccnet_motion
+    from mocapviz.ik import FEET
+    from mocapviz.kinematics import foot_contacts
+
+    def contacts(clip):
+        m = load_ccnet_motion(full_catalog[full_catalog["clip"] == clip].iloc[0], Path(data_dir))
+        feet = [[m.skeleton.index(n) for n in foot] for foot in FEET]
+        return foot_contacts(m.positions(), 60, feet)
+    walk, run, cmu_walk, cmu_run = (contacts(c) for c in (BANDAI_WALK, BANDAI_RUN, "35_01", "09_01"))
+    assert np.all((0.4 < walk.mean(0)) & (walk.mean(0) < 0.7)) and (~walk.any(1)).mean() < 0.02
+    assert np.all((0.1 < run.mean(0)) & (run.mean(0) < 0.35)) and (~run.any(1)).mean() > 0.4
+    assert np.abs(walk.mean() - cmu_walk.mean()) < 0.1 and np.abs(run.mean() - cmu_run.mean()) < 0.1
