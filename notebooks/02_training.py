@@ -126,6 +126,7 @@ model, norm, meta = (None, None, None) if RETRAIN else zoo.load("ccnet_default")
 if RETRAIN:
     model, norm, meta = zoo.load("ccnet_default", prefer_committed=False)
 cfg = model.cfg
+ds = ds.with_vocabulary(cfg.n_types)  # the clips of the types the model knows (older checkpoints: fewer)
 print(f"default config: {len(cfg.dilations)} SRBs, dilations {set(cfg.dilations)}, C = {cfg.channels}, "
       f"skip = {cfg.skip_channels}: {count_parameters(model):,} parameters, CRL = {cfg.receptive_field}")
 for d in [(2,) * 20, (1, 2) * 10, (1, 2, 4) * 6 + (1, 2)]:
@@ -260,8 +261,7 @@ for label, g in generated.items():
 
 # %%
 secs = 10 if QUICK else 60
-test_rows = ds.clips[(ds.clips.split == "test") & ((ds.clips.stop - ds.clips.start) >= 62)
-                     & (ds.clips.type_index < cfg.n_types)]  # types the model knows (its vocabulary)
+test_rows = ds.clips[(ds.clips.split == "test") & ((ds.clips.stop - ds.clips.start) >= 62)]
 rows = test_rows.assign(o=test_rows.groupby("type").cumcount()).sort_values(["o", "type"]).index[:10]
 arrs = [ds.clip_arrays(int(i)) for i in rows]
 g10 = Generator(model, norm, batch=len(arrs)).run(

@@ -231,21 +231,31 @@ def test_every_catalog_type_is_merged(full_catalog):
 
 def test_type_vocabulary_is_stored_and_old_checkpoints_keep_their_indices(ds):
     """The dataset stores its vocabulary; ``ccnet_default`` (13 types, dataset v3) reads index i
-    as MOTION_TYPES[i] and runs on a dataset of its own vocabulary (HDM05 + CMU)."""
+    as MOTION_TYPES[i] and runs (evaluation and generation) on the dataset restricted to its own
+    vocabulary, and on a dataset built with its vocabulary's sources (HDM05 + CMU)."""
     from data_prep import zoo
     from data_prep.ccnet_dataset import DatasetConfig, build_dataset
     from mocapviz.features.motion_types import one_hot, vocabulary
     from mocapviz.tasks.generate import Generator
-    assert ds.motion_types == MOTION_TYPES and ds.layout.n_types == len(MOTION_TYPES)
+    from mocapviz.training.trainer import evaluate
+    from mocapviz.training.windows import WindowData
+    assert ds.motion_types == MOTION_TYPES and ds.layout.n_types == len(MOTION_TYPES) == 21
     model, norm, meta = zoo.load("ccnet_default", retrain_if_missing=False)
     old = vocabulary(model.cfg.n_types, meta["dataset"]["motion_types"])
     assert model.cfg.n_types == 13 and old == MOTION_TYPES[:13] and "walk_back" not in old
     with pytest.raises(ValueError, match="not the first"):
         vocabulary(2, ("jog", "walk"))
+    sub = ds.with_vocabulary(model.cfg.n_types)
+    assert sub.layout.n_types == 13 and set(sub.clips.type) == set(ds.clips.type) & set(old)
+    assert set(sub.clips.source) == {"hdm05", "cmu", "bandai"}  # Bandai walks, runs, kicks, punches
+    i = sub.clip_row(BANDAI_WALK) if BANDAI_WALK in set(sub.clips["clip"]) else sub.clip_row("91_02")
+    np.testing.assert_array_equal(sub.clip_arrays(i)["skel"], ds.clip_arrays(ds.clip_row(sub.clips["clip"][i]))["skel"])
+    data = WindowData(sub, 60, normaliser=norm)
+    losses = evaluate(model, data, data.test[:64])
+    assert np.isfinite(list(losses.values())).all()
     v3 = build_dataset(DatasetConfig(sources=("hdm05", "cmu"), window=60), progress=False)
     assert v3.clips.type_index.max() < model.cfg.n_types
-    row = v3.clip_row("91_02")
-    a = v3.clip_arrays(row)
+    a = v3.clip_arrays(v3.clip_row("91_02"))
     assert old[a["type_index"]] == "walk"
     gen = Generator(model, norm).run(a["x"][None, :60], a["skel"][None], one_hot([a["type_index"]], model.cfg.n_types),
                                      30, seed_traj=a["traj"][None, :60])

@@ -8,7 +8,7 @@ Built (features of every catalog clip, the split, the normaliser) and cached by
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from io import StringIO
 from pathlib import Path
 
@@ -17,7 +17,7 @@ import pandas as pd
 
 from mocapviz.atomic import atomic_path
 from mocapviz.features import ccnet as feat
-from mocapviz.features.motion_types import MOTION_TYPES
+from mocapviz.features.motion_types import MOTION_TYPES, vocabulary
 from mocapviz.skeleton import CCNET_25_JOINTS, Skeleton
 
 
@@ -67,6 +67,16 @@ class CCNetDataset:
     @property
     def layout(self) -> feat.FeatureLayout:
         return feat.FeatureLayout(len(self.joint_names), len(self.motion_types))
+
+    def with_vocabulary(self, n_types: int) -> "CCNetDataset":
+        """This dataset for a model that knows only the first ``n_types`` motion types (an older
+        checkpoint: ``ccnet_default`` has dataset v3's 13): the clips of those types, with a
+        c^t one-hot ``n_types`` wide. Frame rows are shared, not copied; indices keep their
+        meaning because the vocabulary is append-only (:data:`MOTION_TYPES`)."""
+        names = vocabulary(n_types, self.motion_types[:n_types])
+        keep = np.flatnonzero(self.clips.type_index.values < n_types)
+        return replace(self, clips=self.clips.iloc[keep].reset_index(drop=True), skel=self.skel[keep],
+                       offsets=self.offsets[keep], meta={**self.meta, "motion_types": list(names)})
 
     def table(self) -> pd.DataFrame:
         """Frames (at the dataset's fps) and minutes by (source, type) x split, with totals."""
