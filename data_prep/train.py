@@ -21,6 +21,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--batch-size", type=int)
     p.add_argument("--eval-every", type=int)
     p.add_argument("--data-dir")
+    p.add_argument("--dataset", choices=("full", "quick"), default="full",
+                   help="CCNet dataset: full (HDM05 + CMU + every Bandai take) or quick (3 Bandai takes per content)")
     p.add_argument("--export", help="also write a model-only checkpoint here: the best-by-validation model "
                    "(lowest validation NLL over the evaluations, not the last step); its metadata records "
                    "the step it came from and its validation and test NLL")
@@ -44,7 +46,8 @@ def run(a: argparse.Namespace) -> int:
     if a.eval_every:
         cfg = replace(cfg, checkpoint_every=a.eval_every)
     rank = rank_from_env()
-    ds = build_dataset(DatasetConfig(), a.data_dir, progress=rank == 0)
+    ds = build_dataset(DatasetConfig.quick() if a.dataset == "quick" else DatasetConfig(), a.data_dir,
+                       progress=rank == 0)
     ckpt = train(ds, cfg, a.out, resume=not a.no_resume)
     if rank == 0:
         _, _, meta = load_checkpoint(ckpt)

@@ -38,8 +38,15 @@ FIG_DIR = "../figures"
 #   jumping and kicking at 120 fps.
 #
 # Both share the 31-joint VICON tree; CCNet's 25 joints are that tree without hands and fingers.
-# Our total is about 10 minutes, some 70k frames at 120 fps (35k at CCNet's 60 fps): roughly
-# 1/14 of the paper's data, with more subjects but far fewer frames per subject.
+# Together they hold about 10 minutes, some 70k frames at 120 fps (35k at CCNet's 60 fps): many
+# bodies, few frames per body. The CCNet dataset adds
+#
+# * **Bandai Namco Research Motion Dataset** (BVH, 30 fps, CC BY-NC): 1,256 takes, about 110
+#   minutes of walks, turning walks, runs, walking backwards, side steps, hand actions, gestures,
+#   fighting and dance in 7-15 styles, on one proportion-aligned skeleton (no body variety).
+#
+# This notebook looks at the bodies (HDM05 and CMU); the last section shows the CCNet dataset
+# built from all three (HDM05 + CMU + Bandai, about 120 minutes at 60 fps).
 
 # %%
 from pathlib import Path
@@ -178,7 +185,12 @@ display(Image(filename=str(fig_dir / f"dataset_clip_{CLIP}.png")))
 #   heading rate, root height) that generation integrates into the path;
 # * the control: $\mathbf c^s$ (root height + root-relative rest joints, the skeleton
 #   configuration), $\mathbf c^d$ (the root 10, 20, ..., 60 frames ahead in the current heading
-#   frame, 12 values) and a one-hot motion type over the merged types of HDM05 and CMU.
+#   frame, 12 values) and a one-hot motion type over the merged types of HDM05, CMU and Bandai
+#   (`data_prep/motion_types.py`: Bandai's turning walks are walks, its runs join CMU's in *jog*).
+#
+# Bandai's 30 fps takes are resampled to 60 fps; its rig rest pose is re-based onto the VICON
+# T-pose of HDM05 and CMU and the four joints it lacks (hip stubs, LowerBack, Neck1) are filled
+# in with identity rotations, so that every block means the same thing for every source.
 #
 # The layout of $\mathbf x_n$ (one row per block, with its columns and unit):
 
@@ -186,11 +198,25 @@ display(Image(filename=str(fig_dir / f"dataset_clip_{CLIP}.png")))
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from mocapviz.viz.ccnet import plot_controls
 
-ds = build_dataset(DatasetConfig(), progress=False)
+# quick mode: HDM05 + CMU + 3 Bandai takes of each content (seconds to build); full: every take
+ds = build_dataset(DatasetConfig.quick() if QUICK else DatasetConfig(), progress=False)
 display(pd.DataFrame(ds.layout.table(), columns=["block", "start", "stop", "unit"]))
 print(f"{ds.layout.n_x} values a frame; "
       f"{len(ds.clips)} clips, {len(ds.x)} frames at {ds.config.fps:g} fps; "
       f"held-out subject {ds.meta['test_subject']!r}")
+
+# %% [markdown]
+# The dataset by source and motion type: frames at 60 fps and minutes in the training,
+# validation and test splits. Test holds the HDM05 actor *tr*, one clip of every other subject
+# with two long-enough clips, and a seeded 10 % of Bandai's takes per content; validation the
+# HDM05 actor *mm* and another 10 % of Bandai's takes. Windows are 120 frames (2 s): shorter
+# clips stay in the table but give no training windows. (Quick mode shows the quick subset;
+# the full table is in the README.)
+
+# %%
+table = ds.table()
+table.to_csv(fig_dir / "ccnet_dataset_table.csv")
+table
 
 # %% [markdown]
 # The controls drawn over a real clip, HDM05 actor *bd* jogging in a left circle. Left: the root

@@ -82,7 +82,7 @@ print("pyvista backend:", scene.set_notebook_backend(QUICK))
 # kick mapped in: run → jog, jump → hop, kick → kick; CMU walk is its own type).
 
 # %%
-ds = build_dataset(DatasetConfig(), progress=False)
+ds = build_dataset(DatasetConfig.quick() if QUICK else DatasetConfig(), progress=False)
 layout = ds.layout
 display(pd.DataFrame(layout.table(), columns=["block", "start", "stop", "unit"]))
 m = ds.meta
@@ -126,6 +126,7 @@ model, norm, meta = (None, None, None) if RETRAIN else zoo.load("ccnet_default")
 if RETRAIN:
     model, norm, meta = zoo.load("ccnet_default", prefer_committed=False)
 cfg = model.cfg
+ds = ds.with_vocabulary(cfg.n_types)  # the clips of the types the model knows (older checkpoints: fewer)
 print(f"default config: {len(cfg.dilations)} SRBs, dilations {set(cfg.dilations)}, C = {cfg.channels}, "
       f"skip = {cfg.skip_channels}: {count_parameters(model):,} parameters, CRL = {cfg.receptive_field}")
 for d in [(2,) * 20, (1, 2) * 10, (1, 2, 4) * 6 + (1, 2)]:

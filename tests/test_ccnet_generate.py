@@ -16,7 +16,7 @@ from mocapviz.tasks.generate import Generator, freezing_share
 @pytest.fixture(scope="module")
 def ds(data_dir):
     from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig(), data_dir, progress=False)
+    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
 
 
 @pytest.fixture(scope="module")

@@ -22,7 +22,7 @@ TINY = replace(TRAIN_CONFIGS["quick"], steps=8, batch_size=4, window=30, eval_ev
 @pytest.fixture(scope="module")
 def ds(data_dir):
     from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig(), data_dir, progress=False)
+    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
 
 
 def rows(path):
@@ -102,8 +102,8 @@ def test_zoo_trains_only_when_allowed_and_handed_data(ds, tmp_path):
 def test_command_line_trains_and_exports(tmp_path, capsys):
     from data_prep.cli import main
     out = tmp_path / "run"
-    assert main(["train", "--config", "quick", "--steps", "2", "--batch-size", "2", "--eval-every", "2",
-                 "--out", str(out), "--export", str(tmp_path / "m.safetensors")]) == 0
+    assert main(["train", "--config", "quick", "--dataset", "quick", "--steps", "2", "--batch-size", "2",
+                 "--eval-every", "2", "--out", str(out), "--export", str(tmp_path / "m.safetensors")]) == 0
     printed = capsys.readouterr().out
     assert "step 2: val NLL" in printed and "best by validation: step 2" in printed
     assert load_checkpoint(tmp_path / "m.safetensors")[2]["step"] == 2 and len(rows(out)) == 2
@@ -122,7 +122,7 @@ def test_checkpoint_carries_config_and_normaliser(ds, tmp_path):
 def test_torchrun_two_processes_gloo(ds, tmp_path):
     env = dict(os.environ, OMP_NUM_THREADS="1")
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2", "--master_port=29517",
-           "-m", "data_prep", "train", "--config", "quick", "--steps", "4", "--batch-size", "4",
+           "-m", "data_prep", "train", "--config", "quick", "--dataset", "quick", "--steps", "4", "--batch-size", "4",
            "--eval-every", "2", "--out", str(tmp_path)]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300,
                          cwd=Path(__file__).resolve().parent.parent)

@@ -8,7 +8,7 @@ Built (features of every catalog clip, the split, the normaliser) and cached by
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from io import StringIO
 from pathlib import Path
 
@@ -17,18 +17,27 @@ import pandas as pd
 
 from mocapviz.atomic import atomic_path
 from mocapviz.features import ccnet as feat
+from mocapviz.features.motion_types import MOTION_TYPES, vocabulary
 from mocapviz.skeleton import CCNET_25_JOINTS, Skeleton
 
 
 @dataclass(frozen=True)
 class DatasetConfig:
     fps: float = feat.FPS
-    window: int = 60                       # NCF: frames per training window
-    sources: tuple[str, ...] = ("hdm05", "cmu")
+    window: int = 120                      # NCF: frames per training window (2 s; see data_prep)
+    sources: tuple[str, ...] = ("hdm05", "cmu", "bandai")
     test_subject: str = ""                 # "" = random HDM05 actor (seeded)
     val_subject: str = "mm"                # whole actor held out for validation (model selection)
+    bandai_test_share: float = 0.1         # seeded share of Bandai takes per content: test
+    bandai_val_share: float = 0.1          # ... and validation
+    bandai_takes_per_content: int = 0      # 0 = every take; the quick config keeps a few
     seed: int = 7
     joints: tuple[str, ...] = field(default=CCNET_25_JOINTS)
+
+    @classmethod
+    def quick(cls) -> "DatasetConfig":
+        """HDM05 + CMU + 3 Bandai takes of each content (seconds to build; CI and quick mode)."""
+        return cls(bandai_takes_per_content=3)
 
     def key(self) -> str:
         return json.dumps(asdict(self), sort_keys=True)
@@ -51,8 +60,34 @@ class CCNetDataset:
     meta: dict
 
     @property
+    def motion_types(self) -> tuple[str, ...]:
+        """The dataset's type vocabulary (c^t columns), stored in its metadata."""
+        return tuple(self.meta.get("motion_types", MOTION_TYPES))
+
+    @property
     def layout(self) -> feat.FeatureLayout:
-        return feat.FeatureLayout(len(self.joint_names))
+        return feat.FeatureLayout(len(self.joint_names), len(self.motion_types))
+
+    def with_vocabulary(self, n_types: int) -> "CCNetDataset":
+        """This dataset for a model that knows only the first ``n_types`` motion types (an older
+        checkpoint: ``ccnet_default`` has dataset v3's 13): the clips of those types, with a
+        c^t one-hot ``n_types`` wide. Frame rows are shared, not copied; indices keep their
+        meaning because the vocabulary is append-only (:data:`MOTION_TYPES`)."""
+        names = vocabulary(n_types, self.motion_types[:n_types])
+        keep = np.flatnonzero(self.clips.type_index.values < n_types)
+        return replace(self, clips=self.clips.iloc[keep].reset_index(drop=True), skel=self.skel[keep],
+                       offsets=self.offsets[keep], meta={**self.meta, "motion_types": list(names)})
+
+    def table(self) -> pd.DataFrame:
+        """Frames (at the dataset's fps) and minutes by (source, type) x split, with totals."""
+        c = self.clips.assign(frames=self.clips.stop - self.clips.start)
+        t = c.pivot_table(index=["source", "type"], columns="split", values="frames", aggfunc="sum",
+                          fill_value=0).reindex(columns=["train", "val", "test"], fill_value=0)
+        t["all"] = t.sum(axis=1)
+        t.loc[("all", ""), :] = t.sum(axis=0)
+        t = t.astype(int)
+        minutes = (t / self.config.fps / 60).round(1)
+        return pd.concat({"frames": t, "minutes": minutes}, axis=1)
 
     def skeleton(self, clip_row: int) -> Skeleton:
         return Skeleton(self.joint_names, self.parents, self.offsets[clip_row])

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocapviz.features.ccnet_joints import complete_ccnet25
 from mocapviz.features.motion_types import MOTION_TYPES
 from mocapviz.heading import (across_vector, facing_direction, from_heading_frame, heading_of, to_heading_frame,
                               wrap_angle, yaw_matrix)
@@ -234,9 +235,13 @@ class Normaliser:
 
 
 def prepare_motion(motion: Motion, fps: float = FPS) -> Motion:
-    """The 25 CCNet joints at ``fps`` (no-op parts are skipped)."""
-    if set(motion.skeleton.names) != set(CCNET_25_JOINTS):
-        motion = motion.keep_joints(CCNET_25_JOINTS)
+    """The 25 CCNet joints at ``fps`` (no-op parts are skipped); joints a skeleton lacks
+    (Bandai's hip stubs, LowerBack, Neck1) are filled in by :func:`complete_ccnet25`."""
+    names = motion.skeleton.names
+    if set(names) != set(CCNET_25_JOINTS):
+        present = [n for n in CCNET_25_JOINTS if n in names]
+        motion = motion.keep_joints(present) if len(present) < len(names) else motion
+        motion = complete_ccnet25(motion) if len(present) < len(CCNET_25_JOINTS) else motion
     if abs(motion.fps - fps) > 1e-6:
         motion = motion.resample(fps)
     return motion
