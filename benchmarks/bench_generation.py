@@ -25,7 +25,12 @@ import torch
 from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from mocapviz.tasks.generate import Generator
-from mocapviz.tasks.generation_quality import QUALITY_KEYS, bench_seeds, generation_quality, seed_batch
+from mocapviz.tasks.generation_quality import (
+    QUALITY_KEYS,
+    bench_seeds,
+    generation_quality,
+    seed_batch,
+)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from ccnet_reference import full_recompute_outputs, step_outputs  # noqa: E402 - the tests' reference

@@ -89,7 +89,7 @@ def jitter(local: np.ndarray, fps: float) -> float:
 def window_speeds(local: np.ndarray, fps: float, seconds: float = 1.0) -> np.ndarray:
     """(W,) mean :func:`pose_speed` of consecutive non-overlapping windows of ``seconds`` (m/s);
     a trailing partial window is dropped."""
-    n = int(round(seconds * fps))
+    n = round(seconds * fps)
     v = pose_speed(local, fps)
     w = len(v) // n
     return v[:w * n].reshape(w, n).mean(axis=1)

@@ -51,7 +51,7 @@ def test_quick_optimiser_fits_one_clip_better_than_copying_the_frame(ds):
     model.eval()
     with torch.no_grad():
         mean = model(b["x"], b["skel"], b["traj"], b["types"])["mean"][..., var]
-    rms = lambda a: a.pow(2).mean().sqrt().item()  # noqa: E731
+    rms = lambda a: a.pow(2).mean().sqrt().item()
     assert rms(mean - target) < rms(b["x"][..., :n][..., var] - target)
 
 

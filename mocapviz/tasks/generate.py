@@ -153,11 +153,3 @@ class Generator:
             else:
                 pred_traj = raw[:, self.parts["traj_mean"]].copy()
         return Generated(norm.denorm_x(xs), s, xs)
-
-
-def freezing_share(x: np.ndarray, layout: FeatureLayout, train_mean_speed: float, fraction: float = 0.05) -> float:
-    """Share of frames (any leading batch dims) whose mean joint speed is under ``fraction`` of
-    the training data's mean joint speed."""
-    x = np.asarray(x)
-    speed = np.linalg.norm(x[..., layout.x_blocks["vel"]].reshape(x.shape[:-1] + (-1, 3)), axis=-1).mean(-1)
-    return float((speed < fraction * train_mean_speed).mean())

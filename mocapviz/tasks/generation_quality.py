@@ -57,7 +57,7 @@ def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None,
     no IK)."""
     rows = bench_seeds(ds) if rows is None else list(rows)
     x, traj, skel, types = seed_batch(ds, rows, n_seed, model.cfg.n_types)
-    n = int(round(seconds * ds.config.fps))
+    n = round(seconds * ds.config.fps)
     gen = Generator(model, norm, batch=len(rows), sample=sample, seed=seed).run(x, skel, types, n, seed_traj=traj)
     refs, per_clip, motions = {}, {}, {}
     for k, i in enumerate(rows):
