@@ -1,12 +1,14 @@
-"""CCNet generation speed (incremental vs naive recompute) and freezing, default model, this CPU.
+"""CCNet generation speed (incremental vs naive recompute) and pose-level quality, default model, this CPU.
 
     .venv/bin/python benchmarks/bench_generation.py [--model ccnet_default] [--frames 2000]
 
 One character and 64 at once, frames per second of the autoregressive loop (network step plus
 feeding the mean back), with the incremental stepper and with naive recomputation of the last
-CRL frames per new frame; max |incremental - full forward| over a generated sequence; and the
-freezing share over ten 60 s generated clips (frames whose mean joint speed is under 5% of the
-training mean). The last line is a JSON object.
+CRL frames per new frame; max |incremental - full forward| over a generated sequence; and, over
+ten 60 s clips generated free-running from test seeds, with the mean output and with sampling,
+the pose-level quality of seconds 30-60 (:mod:`mocapviz.tasks.generation_quality`): freezing
+share, activity and jitter ratios to the real clips of the same type, and the root height
+relative to the seed's (a drifting body shows there). The last line is a JSON object.
 """
 
 from __future__ import annotations
@@ -22,33 +24,21 @@ import torch
 
 from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-from mocapviz.features.motion_types import one_hot
-from mocapviz.tasks.generate import Generator, freezing_share
+from mocapviz.tasks.generate import Generator
+from mocapviz.tasks.generation_quality import (
+    QUALITY_KEYS,
+    bench_seeds,
+    generation_quality,
+    seed_batch,
+)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from ccnet_reference import full_recompute_outputs, step_outputs  # noqa: E402 - the tests' reference
 
 
-def seeds(ds, n, batch_types=None):
-    """n test-split clips (round-robin over motion types), for seeds and controls."""
-    test = ds.clips[(ds.clips.split == "test") & ((ds.clips.stop - ds.clips.start) >= 62)]
-    order = test.groupby("type", sort=True).cumcount()
-    rows = test.assign(o=order).sort_values(["o", "type"]).index[:n]
-    return [int(i) for i in rows]
-
-
-def gen_inputs(ds, rows, n_seed, n_types):
-    arrs = [ds.clip_arrays(i) for i in rows]
-    x = np.stack([a["x"][:n_seed] for a in arrs])
-    traj = np.stack([a["traj"][:n_seed] for a in arrs])
-    skel = np.stack([a["skel"] for a in arrs])
-    types = one_hot([a["type_index"] for a in arrs], n_types)
-    return x, traj, skel, types
-
-
 def time_incremental(model, norm, ds, batch, frames, n_seed=30, backend="auto"):
-    rows = (seeds(ds, 10) * (batch // 10 + 1))[:batch]
-    x, traj, skel, types = gen_inputs(ds, rows, n_seed, model.cfg.n_types)
+    rows = (bench_seeds(ds) * (batch // 10 + 1))[:batch]
+    x, traj, skel, types = seed_batch(ds, rows, n_seed, model.cfg.n_types)
     g = Generator(model, norm, batch=batch, backend=backend)
     g.run(x, skel, types, 50, seed_traj=traj)  # warm up
     t = time.perf_counter()
@@ -60,8 +50,8 @@ def time_incremental(model, norm, ds, batch, frames, n_seed=30, backend="auto"):
 @torch.inference_mode()
 def time_naive(model, norm, ds, batch, frames, n_seed=30):
     """Each new frame recomputes the network over the last CRL input frames (nn layers)."""
-    rows = (seeds(ds, 10) * (batch // 10 + 1))[:batch]
-    x, traj, skel, types = gen_inputs(ds, rows, n_seed, model.cfg.n_types)
+    rows = (bench_seeds(ds) * (batch // 10 + 1))[:batch]
+    x, traj, skel, types = seed_batch(ds, rows, n_seed, model.cfg.n_types)
     crl = model.cfg.receptive_field
     n = model.cfg.n_continuous
     xs = torch.zeros(batch, n_seed + frames, model.cfg.n_x)
@@ -87,7 +77,7 @@ def main(argv=None) -> dict:
     p.add_argument("--freeze-seconds", type=float, default=60.0)
     a = p.parse_args(argv)
     torch.set_num_threads(a.threads)
-    model, norm, meta = zoo.load(a.model)
+    model, norm, _ = zoo.load(a.model)
     ds = build_dataset(DatasetConfig(), progress=False)
     fps1, out1, (x, traj, skel, types) = time_incremental(model, norm, ds, 1, a.frames)
     print(f"incremental, 1 character : {fps1:10.0f} frames/s")
@@ -110,25 +100,20 @@ def main(argv=None) -> dict:
     full = full_recompute_outputs(model, norm, gen, skel, types, used)
     max_diff = float(np.abs(inc - full).max())
     print(f"max |incremental - full forward| over {inc.shape[1]} frames: {max_diff:.2e}")
-    # freezing: ten clips of freeze_seconds, free-running (the network's own c^d), mean pose
-    frames = int(a.freeze_seconds * 60)
-    rows = seeds(ds, 10)
-    x10, traj10, skel10, types10 = gen_inputs(ds, rows, 60, model.cfg.n_types)
-    g10 = Generator(model, norm, batch=10)
-    t = time.perf_counter()
-    gen10 = g10.run(x10, skel10, types10, frames, seed_traj=traj10)
-    share = freezing_share(gen10.x[:, 60:], ds.layout, meta["dataset"]["train_mean_joint_speed"])
-    per_clip = [freezing_share(gen10.x[i, 60:], ds.layout, meta["dataset"]["train_mean_joint_speed"])
-                for i in range(10)]
-    print(f"freezing share over 10 x {a.freeze_seconds:g} s ({time.perf_counter() - t:.1f} s): {share:.3f}; "
-          "per clip " + ", ".join(f"{ds.clips.iloc[i]['clip']}={s:.2f}" for i, s in zip(rows, per_clip)))
-    speed_ratio = float(np.linalg.norm(gen10.x[:, 60:, ds.layout.x_blocks["vel"]].reshape(10, -1, 25, 3), axis=-1)
-                        .mean() / meta["dataset"]["train_mean_joint_speed"])
-    print(f"mean joint speed of the generated clips / training mean: {speed_ratio:.2f}")
+    # pose-level quality: ten clips of freeze_seconds, free-running (the network's own c^d)
+    quality = {}
+    for mode in ("mean", "sample"):
+        t = time.perf_counter()
+        q = generation_quality(model, norm, ds, a.freeze_seconds, sample=mode == "sample")
+        quality[mode] = q["summary"]
+        print(f"{mode} output, 10 x {a.freeze_seconds:g} s, second half ({time.perf_counter() - t:.1f} s), "
+              "min / median / max: " + "; ".join(f"{k} {v}" for k, v in q["summary"].items()))
+        for clip, c in q["per_clip"].items():
+            print(f"    {clip:44s} {c['type']:12s} " + "  ".join(f"{k} {c[k]:.3f}" for k in QUALITY_KEYS))
     res = dict(fps_single=round(fps1, 1), fps_batch64=round(fps64, 1), speedup_vs_naive=round(fps1 / naive1, 2),
                fps_naive_single=round(naive1, 1), fps_naive_batch64=round(naive64, 1),
                fps_batch64_by_backend={k: round(v, 1) for k, v in fps64_by.items()},
-               max_abs_diff=max_diff, freezing_share=round(share, 4), speed_ratio=round(speed_ratio, 3), threads=a.threads, model=a.model)
+               max_abs_diff=max_diff, pose_quality=quality, threads=a.threads, model=a.model)
     print(json.dumps(res))
     return res
 

@@ -102,6 +102,38 @@ def test_incremental_equals_full_recompute(dilations, batch):
     assert torch.allclose(keep[..., 2 * n:], raw_full[..., 2 * n:], atol=1e-5)
 
 
+def test_residual_mean_adds_the_input_frame():
+    plain, res = net(small_cfg()), CCNet(small_cfg(residual=True)).eval()
+    res.load_state_dict(plain.state_dict())
+    x, skel, traj, types = inputs(small_cfg())
+    with torch.no_grad():
+        a, b = plain(x, skel, traj, types), res(x, skel, traj, types)
+    n = small_cfg().n_continuous
+    assert torch.allclose(b["mean"], a["mean"] + x[..., :n])
+    assert all(torch.equal(a[k], b[k]) for k in ("sigma", "contact_logits", "traj_mean", "traj_sigma"))
+    # a config saved before the option existed loads as the paper's non-residual network
+    assert not CCNetConfig.from_json(small_cfg(residual=True).to_json().replace(', "residual": true', "")).residual
+
+
+def test_fed_back_inputs_are_the_models_own_means():
+    from mocapviz.training.trainer import fed_back
+    cfg = small_cfg(residual=True)
+    m = net(cfg)
+    x, skel, traj, types = inputs(cfg, t=10)
+    varying = torch.ones(cfg.n_continuous, dtype=torch.bool)
+    varying[0] = False
+    b = dict(x=x, skel=skel, traj=traj, types=types, varying=varying)
+    with torch.no_grad():
+        mean = m(x, skel, traj, types)["mean"]
+        once, twice = fed_back(m, b, m.input_names, 1), fed_back(m, b, m.input_names, 2)
+        mean2 = m(once, skel, traj, types)["mean"]
+    n = cfg.n_continuous
+    assert torch.equal(once[:, :5], x[:, :5])                        # first half: the data
+    assert torch.equal(once[:, 5:, 1:n], mean[:, 4:-1, 1:])          # frame t: the mean predicted at t-1
+    assert torch.equal(once[:, 5:, 0], x[:, 5:, 0]) and torch.equal(once[..., n:], x[..., n:])
+    assert torch.equal(twice[:, 5:, 1:n], mean2[:, 4:-1, 1:])        # the second pass feeds the first's
+
+
 def test_gaussian_nll_hand_computed():
     x = torch.tensor([1.0, -2.0])
     mu = torch.tensor([0.5, 0.0])
@@ -133,6 +165,26 @@ def test_loss_combines_terms_with_paper_weights():
     total = parts["nll"] + 10 * parts["smooth"] + 2 * parts["contact"] + parts["traj_nll"]
     assert torch.allclose(parts["loss"], total)
     assert sigma_min_respected(out, cfg)
+
+
+def test_loss_leaves_out_constant_channels():
+    """``channels`` drops channels from L_G and L_s: by hand on two channels, one left out."""
+    target = torch.tensor([[[1.0, 0.0, 1.0]]]).repeat(1, 3, 1)   # (1, 3, 2 continuous + 1 contact)
+    mean = torch.tensor([[[0.0, 5.0], [0.0, -5.0], [0.0, 5.0]]])
+    out = dict(mean=mean, sigma=torch.tensor([[[1.0, 1e-4]]]).repeat(1, 3, 1),
+               contact_logits=torch.zeros(1, 3, 1), traj_mean=torch.zeros(1, 3, 1), traj_sigma=torch.ones(1, 3, 1))
+    keep = torch.tensor([True, False])
+    parts = ccnet_loss(out, target, torch.zeros(1, 3, 1), 2, channels=keep)
+    assert parts["nll"].item() == pytest.approx(0.5 + 0.5 * math.log(2 * math.pi), abs=1e-6)
+    assert parts["smooth"].item() == 0.0                        # channel 0's mean is constant
+    assert ccnet_loss(out, target, torch.zeros(1, 3, 1), 2)["smooth"].item() == pytest.approx(20.0 ** 2 / 2)
+
+
+def test_normaliser_marks_the_constant_channels():
+    x = np.array([[1.0, 2.0, 3.0, 0.0], [1.0, 5.0, 3.0, 1.0]])   # channels 0 and 2 constant (last: a contact)
+    norm = Normaliser.fit(x, np.ones((2, 1)), np.ones((2, 1)), n_continuous=3)
+    np.testing.assert_array_equal(norm.constant_channels(), [True, False, True])
+    assert not norm.norm_x(x)[:, :3][:, norm.constant_channels()].any()
 
 
 def sigma_min_respected(out, cfg):

@@ -1,4 +1,5 @@
-"""CCNet training: exact resume, best-by-validation selection and export, checkpoint contents, DDP (slow)."""
+"""CCNet training: the optimiser fits one clip, exact resume, best-by-validation selection and export,
+checkpoint contents, DDP (slow)."""
 
 import csv
 import os
@@ -7,13 +8,16 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 import torch
 
+from mocapviz.models.ccnet import CCNet
 from mocapviz.training.checkpoint import load_checkpoint
 from mocapviz.training.config import TRAIN_CONFIGS
 from mocapviz.training.runs import best_row, export_model
 from mocapviz.training.trainer import train
+from mocapviz.training.windows import WindowData
 
 TINY = replace(TRAIN_CONFIGS["quick"], steps=8, batch_size=4, window=30, eval_every=4, checkpoint_every=4,
                dilations=(1, 2, 4))
@@ -23,6 +27,32 @@ TINY = replace(TRAIN_CONFIGS["quick"], steps=8, batch_size=4, window=30, eval_ev
 def ds(data_dir):
     from data_prep.ccnet_dataset import DatasetConfig, build_dataset
     return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
+
+
+def test_quick_optimiser_fits_one_clip_better_than_copying_the_frame(ds):
+    """The "quick" config's network (20 blocks, dropout off) and optimiser at its lr fit 4 windows
+    of one training clip, teacher-forced, within 200 steps: the mean's RMS error (normalised,
+    varying channels) falls below copying the current frame. torch's RMSprop at lr 1e-3 did not
+    (no bias correction: ~10x lr steps at the start; here 1.07 -> 0.93, copy 0.46; Adam 0.21)."""
+    cfg = replace(TRAIN_CONFIGS["quick"], dropout=0.0)
+    data = WindowData(ds, cfg.window)
+    clips = data.train[:, 0]
+    b = data.batch(data.train[clips == np.bincount(clips).argmax()][:4])
+    torch.manual_seed(0)
+    model = CCNet(cfg.model_config(data.layout))
+    n, var = model.cfg.n_continuous, b["varying"]
+    target = b["target_x"][..., :n][..., var]
+    opt = cfg.make_optimizer(model.parameters())
+    for _ in range(200):
+        loss = (model(b["x"], b["skel"], b["traj"], b["types"])["mean"][..., var] - target).pow(2).sum(-1).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    model.eval()
+    with torch.no_grad():
+        mean = model(b["x"], b["skel"], b["traj"], b["types"])["mean"][..., var]
+    rms = lambda a: a.pow(2).mean().sqrt().item()
+    assert rms(mean - target) < rms(b["x"][..., :n][..., var] - target)
 
 
 def rows(path):

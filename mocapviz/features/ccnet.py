@@ -208,6 +208,12 @@ class Normaliser:
         return cls(xc.mean(0).astype(np.float32), cls._std(xc), skel.mean(0).astype(np.float32),
                    cls._std(skel), traj.mean(0).astype(np.float32), cls._std(traj))
 
+    def constant_channels(self) -> np.ndarray:
+        """(n_continuous,) bool: channels constant in the training data (``fit`` stores std 1 for
+        them; their normalised value is always 0). A varying channel whose std is exactly 1.0 would be
+        marked too: the saved normaliser keeps only mean and std (checkpoints stay as they are)."""
+        return self.x_std == 1.0
+
     def norm_x(self, x):
         n = len(self.x_mean)
         out = np.array(x, dtype=np.float32, copy=True)

@@ -20,6 +20,11 @@ class CCNetConfig:
     dropout: float = 0.5
     sigma_min: float = 1e-4
     skip_bias: bool = False   # 20 skip biases add up in Eq. 4; without them the decoder's ReLU stays alive more often
+    # residual: the mean is x_t + decoder output (the network predicts the change to the next
+    # frame). Off by default: the paper's network is not residual, and ours with it no longer
+    # froze but drifted without bound in generation (mean |z| of the frame 0.6 -> 23 over 60 s,
+    # issue 9). False for checkpoints saved before the option existed.
+    residual: bool = False
 
     def __post_init__(self):
         if self.kernel_size != 2:

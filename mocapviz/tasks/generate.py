@@ -72,6 +72,7 @@ class Generator:
             self._step = self.stepper.step
         else:
             self._step = lambda x, c: self.stepper.step(torch.from_numpy(x), torch.from_numpy(c)).numpy()
+        self.constant = normaliser.constant_channels()  # written as their training value (0 normalised)
         self.keep_outputs = False     # keep every raw step output (tests / benchmark)
         self.raw_outputs: list[np.ndarray] = []
 
@@ -84,6 +85,7 @@ class Generator:
             dest[:, :n] = raw[:, out["mean"]] + sigma * self.rng.standard_normal(sigma.shape, dtype=np.float32)
         else:
             dest[:, :n] = raw[:, out["mean"]]
+        dest[:, :n][:, self.constant] = 0.0
         np.greater(raw[:, out["contact_logits"]], 0, out=dest[:, n:], casting="unsafe")
         return raw[:, out["traj_mean"]]
 
@@ -142,6 +144,8 @@ class Generator:
             else:
                 c_next = pred_traj
             raw = self._step(x_t, np.ascontiguousarray(c_next))
+            if self.cfg.residual:  # the decoder gave the change from x_t
+                raw[:, self.parts["mean"]] += x_t[:, :self.cfg.n_continuous]
             if self.keep_outputs:
                 self.raw_outputs.append(raw.copy())
             if t + 1 >= s:
@@ -149,11 +153,3 @@ class Generator:
             else:
                 pred_traj = raw[:, self.parts["traj_mean"]].copy()
         return Generated(norm.denorm_x(xs), s, xs)
-
-
-def freezing_share(x: np.ndarray, layout: FeatureLayout, train_mean_speed: float, fraction: float = 0.05) -> float:
-    """Share of frames (any leading batch dims) whose mean joint speed is under ``fraction`` of
-    the training data's mean joint speed."""
-    x = np.asarray(x)
-    speed = np.linalg.norm(x[..., layout.x_blocks["vel"]].reshape(x.shape[:-1] + (-1, 3)), axis=-1).mean(-1)
-    return float((speed < fraction * train_mean_speed).mean())

@@ -15,6 +15,14 @@ L = L_G + lambda1 L_s + lambda2 L_f + lambda3 L_d with lambda = (10, 2, 1):
   shuffles in place. Averaged, it smooths without that collapse.
 - L_f (Eq. 9): binary cross-entropy of the two foot-contact labels (from logits).
 
+Channels that are constant in the training data (the rotations and angular velocities of joints
+without rotational freedom: 44 of 304 in dataset v3) are left out of L_G and L_s (``channels``).
+Kept in, their sigma shrinks (median 0.002 in the first committed model, together -218 of its
+NLL per frame: the reported NLL was mostly these free nats), any dependence of their mean on the
+input costs err^2 / sigma^2, and the network switched off most skip units before the decoder's
+ReLU (9 of 64 ever active). Left out, the units stay alive (29 of 32 in a quick run); alone this
+does not make the mean follow the input frame.
+
 L_G, L_d and L_f are summed over their channels and averaged over frames and batch ("per frame").
 In the logs L_d is ``traj_nll`` (the NLL of the predicted trajectory control c^d).
 
@@ -39,8 +47,11 @@ def gaussian_nll(target: torch.Tensor, mean: torch.Tensor, sigma: torch.Tensor) 
     return torch.log(sigma) + 0.5 * ((target - mean) / sigma) ** 2 + _HALF_LOG_2PI
 
 
-def smoothness(mean: torch.Tensor) -> torch.Tensor:
-    """Squared second difference of the means along time (B, T, D), averaged over D."""
+def smoothness(mean: torch.Tensor, channels: torch.Tensor | None = None) -> torch.Tensor:
+    """Squared second difference of the means along time (B, T, D), averaged over D (or over the
+    channels where the (D,) bool ``channels`` is true)."""
+    if channels is not None:
+        mean = mean[..., channels]
     if mean.shape[1] < 3:
         return mean.new_zeros(())
     d2 = mean[:, 2:] + mean[:, :-2] - 2 * mean[:, 1:-1]
@@ -48,22 +59,25 @@ def smoothness(mean: torch.Tensor) -> torch.Tensor:
 
 
 def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_continuous: int,
-               lambdas=LAMBDAS) -> dict[str, torch.Tensor]:
+               lambdas=LAMBDAS, channels: torch.Tensor | None = None) -> dict[str, torch.Tensor]:
     """out: the model's dict; target_x (B, T, n_x) = x_{t+1}; target_traj (B, T, 12) = c^d_{t+2};
-    the first ``n_continuous`` channels of x are Gaussian, the rest contact labels."""
+    the first ``n_continuous`` channels of x are Gaussian, the rest contact labels; ``channels``
+    (n_continuous,) bool: the continuous channels that count in L_G and L_s (None: all)."""
     l1, l2, l3 = lambdas
-    nll = gaussian_nll(target_x[..., :n_continuous], out["mean"], out["sigma"]).sum(-1).mean()
+    nll = gaussian_nll(target_x[..., :n_continuous], out["mean"], out["sigma"])
+    nll = (nll if channels is None else nll[..., channels]).sum(-1).mean()
     traj_nll = gaussian_nll(target_traj, out["traj_mean"], out["traj_sigma"]).sum(-1).mean()
     contact = F.binary_cross_entropy_with_logits(out["contact_logits"], target_x[..., n_continuous:],
                                                  reduction="none").sum(-1).mean()
-    smooth = smoothness(out["mean"])
+    smooth = smoothness(out["mean"], channels)
     total = nll + l1 * smooth + l2 * contact + l3 * traj_nll
     return dict(loss=total, nll=nll, smooth=smooth, contact=contact, traj_nll=traj_nll)
 
 
 def ccnet_window_loss(out: dict, batch: dict, cfg, lambdas=LAMBDAS) -> dict[str, torch.Tensor]:
-    """:func:`ccnet_loss` on a training batch of :class:`mocapviz.training.windows.WindowData`."""
-    return ccnet_loss(out, batch["target_x"], batch["target_traj"], cfg.n_continuous, lambdas)
+    """:func:`ccnet_loss` on a training batch of :class:`mocapviz.training.windows.WindowData`
+    (its ``varying`` channels count in L_G and L_s)."""
+    return ccnet_loss(out, batch["target_x"], batch["target_traj"], cfg.n_continuous, lambdas, batch.get("varying"))
 
 
 LOSSES = {"ccnet": ccnet_window_loss}

@@ -1,4 +1,4 @@
-"""Train CCNet (paper §4.2): RMSprop, lr 1e-4 decaying to 1e-6, input noise, whole windows.
+"""Train CCNet (paper §4.2): RMSprop (or Adam: ``TrainConfig.optimizer``), lr decaying exponentially, input noise, whole windows.
 
 Every step draws ``batch_size`` windows of ``window`` frames at random (clip, then start), adds
 i.i.d. N(0, 0.03^2) noise to the normalised inputs, and trains on every frame of the window at
@@ -41,6 +41,26 @@ from mocapviz.training.distributed import rank_and_world
 from mocapviz.training.losses import LAMBDAS, LOSSES
 from mocapviz.training.runs import BEST, CHECKPOINT, LOG, best_row, read_log, write_log
 from mocapviz.training.windows import WindowData
+
+
+@torch.no_grad()
+def fed_back(net, b: dict, input_names, passes: int) -> torch.Tensor:
+    """Inputs ``b["x"]`` (B, T, n_x) whose second half is the model's own predicted means, as in
+    generation (``TrainConfig.feedback_passes``).
+
+    The first half stays the (noisy) data, like a seed. Each pass feeds the means predicted by the
+    previous one: after k passes an input of the second half carries the errors of up to k chained
+    predictions, so the network trains on its own errors (i.i.d. input noise does not look like
+    them). The constant channels (``b["varying"]`` false) and the contact labels stay the data's.
+    """
+    x, varying = b["x"], b["varying"]
+    t0, n = x.shape[1] // 2, varying.shape[0]
+    for _ in range(passes):
+        mean = net(**{k: (x if k == "x" else b[k]) for k in input_names})["mean"]
+        new = x.clone()
+        new[:, t0:, :n][..., varying] = mean[:, t0 - 1:-1][..., varying]  # the mean at t-1 predicts frame t
+        x = new
+    return x
 
 
 def lr_at(cfg: TrainConfig, step: int) -> float:
@@ -89,7 +109,7 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     torch.manual_seed(cfg.seed)
     model = model_cls(cfg.model_config(data.layout))
     loss_fn = LOSSES[model.name]
-    opt = torch.optim.RMSprop(model.parameters(), lr=cfg.lr)
+    opt = cfg.make_optimizer(model.parameters())
     start = 0
     rows: list[dict] = []
     if resume and ckpt.is_file():
@@ -117,6 +137,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         torch.manual_seed(int(rng.integers(2 ** 62)))
         b = data.batch(data.train[rng.integers(len(data.train), size=per_rank)])
         b["x"] = b["x"] + cfg.noise_std * torch.randn_like(b["x"])  # input noise (the targets stay clean)
+        if cfg.feedback_passes:
+            b["x"] = fed_back(net, b, model.input_names, cfg.feedback_passes)
         out = net(**{k: b[k] for k in model.input_names})
         parts = loss_fn(out, b, model.cfg, cfg.lambdas)
         opt.zero_grad(set_to_none=True)

@@ -23,6 +23,7 @@ class WindowData:
         self.x = torch.from_numpy(norm.norm_x(ds.x))
         self.traj = torch.from_numpy(norm.norm_traj(ds.traj))
         self.skel = torch.from_numpy(norm.norm_skel(ds.skel))
+        self.varying = torch.from_numpy(~norm.constant_channels())  # the channels counted in L_G and L_s
         self.types = torch.from_numpy(one_hot(ds.clips.type_index.values, self.layout.n_types))
         self.clip_start = ds.clips.start.values
         self.train = ds.window_starts("train", window)
@@ -38,4 +39,4 @@ class WindowData:
         g = self.clip_start[clip] + pairs[:, 1]
         idx = torch.from_numpy(g[:, None] + np.arange(self.window)[None])
         return dict(x=self.x[idx], traj=self.traj[idx + 1], skel=self.skel[clip], types=self.types[clip],
-                    target_x=self.x[idx + 1], target_traj=self.traj[idx + 2])
+                    target_x=self.x[idx + 1], target_traj=self.traj[idx + 2], varying=self.varying)

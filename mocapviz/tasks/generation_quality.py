@@ -1,0 +1,78 @@
+"""Pose-level quality of free-running CCNet generation against the real clips of the same type.
+
+The one home of the evaluation that ``benchmarks/bench_generation.py`` and notebook 02 report:
+ten test-split seeds (round-robin over motion types), generated free-running (the network's own
+c^d), measured over the second half of the generation with :mod:`mocapviz.metrics` on poses:
+
+- freezing share (1 s windows of root-relative joint positions under 1 cm/s),
+- activity and jitter as ratios to the mean of the real clips of the seed's motion type,
+- root height as a ratio to the seed's mean root height: a body that drifts (sinks under the
+  floor, flies off) shows here even when its activity and jitter look plausible.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mocapviz import metrics
+from mocapviz.features.motion_types import one_hot
+from mocapviz.tasks.generate import Generator
+
+QUALITY_KEYS = ("freezing_share", "activity_ratio", "jitter_ratio", "root_height_ratio")
+
+
+def bench_seeds(ds, n: int = 10) -> list[int]:
+    """``n`` test-split clip rows of at least 62 frames, round-robin over motion types."""
+    test = ds.clips[(ds.clips.split == "test") & ((ds.clips.stop - ds.clips.start) >= 62)]
+    order = test.groupby("type", sort=True).cumcount()
+    return [int(i) for i in test.assign(o=order).sort_values(["o", "type"]).index[:n]]
+
+
+def seed_batch(ds, rows, n_seed: int, n_types: int):
+    """Raw seed frames (B, n_seed, n_x), their c^d (B, n_seed, 12), c^s (B, n_skel) and one-hot
+    types (B, n_types) of the clip rows ``rows``."""
+    arrs = [ds.clip_arrays(i) for i in rows]
+    return (np.stack([a["x"][:n_seed] for a in arrs]), np.stack([a["traj"][:n_seed] for a in arrs]),
+            np.stack([a["skel"] for a in arrs]), one_hot([a["type_index"] for a in arrs], n_types))
+
+
+def real_reference(ds, motion_type: str) -> tuple[float, float]:
+    """Mean activity (m/s) and jitter (m/s^2) of the dataset's clips of ``motion_type`` (> 1 s)."""
+    fps = ds.config.fps
+    act, jit = [], []
+    for i in np.flatnonzero((ds.clips.type == motion_type).values & ((ds.clips.stop - ds.clips.start) > fps).values):
+        m = ds.clip_motion(int(i))
+        local = metrics.local_positions(m.positions(), m.skeleton)
+        act.append(metrics.activity(local, fps))
+        jit.append(metrics.jitter(local, fps))
+    return float(np.mean(act)), float(np.mean(jit))
+
+
+def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None, n_seed: int = 60,
+                       seed: int = 0) -> dict:
+    """Generate ``seconds`` after an ``n_seed``-frame seed from each clip row of ``rows`` (default
+    :func:`bench_seeds`); the :data:`QUALITY_KEYS` over the second half of the generated frames,
+    per clip (``per_clip``: clip name -> dict, plus its ``type``) and as [min, median, max] over
+    the clips (``summary``). Also returns the generated motions (``motions``, seed included,
+    no IK)."""
+    rows = bench_seeds(ds) if rows is None else list(rows)
+    x, traj, skel, types = seed_batch(ds, rows, n_seed, model.cfg.n_types)
+    n = round(seconds * ds.config.fps)
+    gen = Generator(model, norm, batch=len(rows), sample=sample, seed=seed).run(x, skel, types, n, seed_traj=traj)
+    refs, per_clip, motions = {}, {}, {}
+    for k, i in enumerate(rows):
+        r = ds.clips.iloc[i]
+        m = gen.motion(k, ds.skeleton(i), (r.root_x, r.root_y, r.root_z), r.heading, ik=False)
+        half = m[n_seed + n // 2:]
+        local = metrics.local_positions(half.positions(), half.skeleton)
+        if r["type"] not in refs:
+            refs[r["type"]] = real_reference(ds, r["type"])
+        act, jit = refs[r["type"]]
+        per_clip[r["clip"]] = dict(
+            type=r["type"], freezing_share=metrics.freezing_share(local, m.fps),
+            activity_ratio=metrics.activity(local, m.fps) / act, jitter_ratio=metrics.jitter(local, m.fps) / jit,
+            root_height_ratio=float(half.root_positions[:, 1].mean() / m.root_positions[:n_seed, 1].mean()))
+        motions[r["clip"]] = m
+    summary = {key: [round(float(f(v)), 3) for f in (np.min, np.median, np.max)]
+               for key in QUALITY_KEYS for v in [[c[key] for c in per_clip.values()]]}
+    return dict(summary=summary, per_clip=per_clip, motions=motions)
