@@ -78,7 +78,8 @@ def main(argv=None) -> dict:
     a = p.parse_args(argv)
     torch.set_num_threads(a.threads)
     model, norm, _ = zoo.load(a.model)
-    ds = build_dataset(DatasetConfig(), progress=False)
+    # the clips of the types the model knows (the committed model predates dataset v4's 21 types)
+    ds = build_dataset(DatasetConfig(), progress=False).with_vocabulary(model.cfg.n_types)
     fps1, out1, (x, traj, skel, types) = time_incremental(model, norm, ds, 1, a.frames)
     print(f"incremental, 1 character : {fps1:10.0f} frames/s")
     fps64_by = {b: time_incremental(model, norm, ds, 64, max(200, a.frames // 5), backend=b)[0]
