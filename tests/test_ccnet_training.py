@@ -33,14 +33,21 @@ def test_quick_optimiser_fits_one_clip_better_than_copying_the_frame(ds):
     """The "quick" config's network (20 blocks, dropout off) and optimiser at its lr fit 4 windows
     of one training clip, teacher-forced, within 200 steps: the mean's RMS error (normalised,
     varying channels) falls below copying the current frame. torch's RMSprop at lr 1e-3 did not
-    (no bias correction: ~10x lr steps at the start; here 1.07 -> 0.93, copy 0.46; Adam 0.21)."""
+    (no bias correction: ~10x lr steps at the start). On the quick v4 dataset's most moving
+    training clip: copy 1.43, Adam 0.32, RMSprop 1e-3 1.48."""
     cfg = replace(TRAIN_CONFIGS["quick"], dropout=0.0)
     data = WindowData(ds, cfg.window)
     clips = data.train[:, 0]
-    b = data.batch(data.train[clips == np.bincount(clips).argmax()][:4])
+    n = ds.layout.n_continuous
+
+    def copy_error(b):
+        return (b["x"][..., :n] - b["target_x"][..., :n])[..., b["varying"]].pow(2).mean().item()
+    # the training clip that moves most (a near-static clip is copied almost exactly, nothing to learn)
+    batches = [data.batch(data.train[clips == c][:4]) for c in np.unique(clips) if (clips == c).sum() >= 4]
+    b = max(batches, key=copy_error)
     torch.manual_seed(0)
     model = CCNet(cfg.model_config(data.layout))
-    n, var = model.cfg.n_continuous, b["varying"]
+    var = b["varying"]
     target = b["target_x"][..., :n][..., var]
     opt = cfg.make_optimizer(model.parameters())
     for _ in range(200):
