@@ -78,6 +78,8 @@ def test_fk_of_the_file_at_the_mapped_joints_equals_the_generated_positions(writ
     made_up = [n for n, s in zip(result.rig.names, src) if s < 0]
     if key == "bandai":  # CCNet joints Bandai lacks are made up; the rest map
         assert made_up == ["LHipJoint", "RHipJoint", "LowerBack", "Neck1"]
+        # the file's reference root stays where the seed has it (its body root, Hips, travels)
+        np.testing.assert_allclose(back.root_positions, seed.root_positions[:1].repeat(back.n_frames, 0), atol=1e-6)
     if key == "cmu-dropped":
         assert made_up == ["LowerBack", "Neck1"]
         neck = back.skeleton.index("Neck")  # dropped in between: moves in the seed, fixed after it

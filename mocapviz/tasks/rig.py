@@ -73,6 +73,7 @@ class ModelRig:
         self.fixed_rot = np.array([_mean_rotation(reference.rotations[:, j]) for j in range(sk.n_joints)])
         self.fixed_trans = sk.offsets.copy()
         self.translated = sorted(reference.translations)  # joints with per-frame translations
+        self.fixed_root = reference.root_positions.mean(axis=0)  # where an unmapped reference root stays
         for j, t in reference.translations.items():
             self.fixed_trans[j] = t.mean(axis=0)
         identity = np.broadcast_to(np.eye(3), (len(self.names), 3, 3))
@@ -230,9 +231,12 @@ class ModelRig:
         p = np.empty((n, fsk.n_joints, 3))
         model_of = {int(s): c for c, s in enumerate(self.source) if s >= 0}
         root_src = int(self.source[0])
-        if root_src != 0:  # unmapped joints above the model's root: placed so that it lands right
+        if root_src != 0:  # unmapped joints above the model's root (a reference root, as in Bandai)
             g[:, 0] = self.fixed_rot[0]
-            p[:, 0] = pm[:, 0] - self.fixed_rot[0] @ self._chain(0, root_src)
+            if root_src in self.translated:  # the file moves its body root: the reference root stays put
+                p[:, 0] = self.fixed_root
+            else:  # only the file's root can travel: placed so that the body root lands right
+                p[:, 0] = pm[:, 0] - self.fixed_rot[0] @ self._chain(0, root_src)
         for j in range(fsk.n_joints):
             if j in model_of:
                 c = model_of[j]
