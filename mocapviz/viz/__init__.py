@@ -17,7 +17,7 @@ _HOMES = {
     "colors": ("subject_colors", "time_colors"),
     "figures": ("save_figure", "show_figure"),
     "plots": ("VICON_BONE_NAMES", "bone_length_table", "plot_bone_lengths", "plot_dataset_minutes"),
-    "ccnet": ("plot_controls", "plot_joint_speed", "plot_training_curves"),
+    "ccnet": ("plot_controls", "plot_training_curves"),
     "body_plots": ("plot_counts", "plot_durations", "plot_segmentation"),
     "scene": ("ClipScene", "add_ground", "aim_camera", "choose_notebook_backend", "distance_to_fit",
               "frame_strip", "new_plotter", "render_clip", "save_screenshot", "set_notebook_backend",

@@ -77,17 +77,3 @@ def plot_training_curves(runs: dict[str, str | Path], path: str | Path | None = 
     fig.tight_layout()
     save_figure(fig, path, dpi=110)
     return fig
-
-
-def plot_joint_speed(series: dict[str, np.ndarray], train_mean: float, path: str | Path | None = None):
-    """Mean joint speed per frame of generated sequences, with the 5%-of-training freezing line."""
-    fig, ax = plt.subplots(figsize=(12, 3.2))
-    for name, s in series.items():
-        ax.plot(np.arange(len(s)) / FPS, s, lw=0.8, label=name)
-    ax.axhline(0.05 * train_mean, color="crimson", ls="--", label="freezing threshold (5% of training mean)")
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("mean joint speed (m/s)")
-    ax.legend(fontsize=8, loc="upper right")
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    return fig
