@@ -101,13 +101,13 @@ def main(argv=None) -> dict:
     full = full_recompute_outputs(model, norm, gen, skel, types, used)
     max_diff = float(np.abs(inc - full).max())
     print(f"max |incremental - full forward| over {inc.shape[1]} frames: {max_diff:.2e}")
-    # pose-level quality: ten clips of freeze_seconds, free-running (the network's own c^d)
+    # pose-level quality: the locomotion seeds, freeze_seconds each, free-running (the network's own c^d)
     quality = {}
     for mode in ("mean", "sample"):
         t = time.perf_counter()
         q = generation_quality(model, norm, ds, a.freeze_seconds, sample=mode == "sample")
         quality[mode] = q["summary"]
-        print(f"{mode} output, 10 x {a.freeze_seconds:g} s, second half ({time.perf_counter() - t:.1f} s), "
+        print(f"{mode} output, {len(q['per_clip'])} x {a.freeze_seconds:g} s, second half ({time.perf_counter() - t:.1f} s), "
               "min / median / max: " + "; ".join(f"{k} {v}" for k, v in q["summary"].items()))
         for clip, c in q["per_clip"].items():
             print(f"    {clip:44s} {c['type']:12s} " + "  ".join(f"{k} {c[k]:.3f}" for k in QUALITY_KEYS))

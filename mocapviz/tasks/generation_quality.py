@@ -23,8 +23,9 @@ QUALITY_KEYS = ("freezing_share", "activity_ratio", "jitter_ratio", "root_height
 
 # The seeds of issue 9's "Done when": locomotion and repeatable motion, where a real performer
 # keeps moving for a minute (a one-off action such as lying down ends in a still pose, so
-# freezing after it is no failure). (motion type, description prefix or None for any).
-LOCOMOTION_SEEDS = (("walk", "walk"), ("walk", "walk-turn"), ("jog", "run"), ("jog", "jog"), ("sneak", None),
+# freezing after it is no failure). (motion type, regular expression the clip's description must
+# match in full, or None for any).
+LOCOMOTION_SEEDS = (("walk", "walk"), ("walk", "walk-turn-.*"), ("jog", "run"), ("jog", "jog.*"), ("sneak", None),
                     ("hop", None), ("walk_back", None), ("side_step", None), ("wave", None), ("dash", None))
 
 
@@ -42,10 +43,10 @@ def locomotion_seeds(ds, min_frames: int = 48) -> list[int]:
     c = ds.clips
     ok = (c.split == "test") & ((c.stop - c.start) >= min_frames)
     rows = []
-    for motion_type, prefix in LOCOMOTION_SEEDS:
+    for motion_type, description in LOCOMOTION_SEEDS:
         hit = ok & (c.type == motion_type)
-        if prefix is not None:
-            hit &= c.description.str.startswith(prefix)
+        if description is not None:
+            hit &= c.description.str.fullmatch(description)
         if hit.any():
             rows.append(int(np.flatnonzero(hit.values)[0]))
     return rows

@@ -1,0 +1,26 @@
+"""The seeds of the generation-quality benchmark (issue 9's "Done when"): locomotion and
+repeatable motion from the test split, one per entry of LOCOMOTION_SEEDS."""
+
+import pytest
+
+from mocapviz.tasks.generation_quality import LOCOMOTION_SEEDS, SEED_FRAMES, locomotion_seeds
+
+
+@pytest.fixture(scope="module")
+def ds(data_dir):
+    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
+
+
+def test_locomotion_seeds_are_distinct_test_clips_of_the_named_kinds(ds):
+    rows = locomotion_seeds(ds)
+    clips = ds.clips.iloc[rows]
+    assert len(set(rows)) == len(rows) == len(LOCOMOTION_SEEDS)  # the quick dataset holds every kind
+    assert (clips.split == "test").all()
+    assert ((clips.stop - clips.start) >= SEED_FRAMES).all()
+    # in the order of LOCOMOTION_SEEDS: plain walk is not a turning walk, Bandai's run is labelled jog
+    assert list(clips.type) == [t for t, _ in LOCOMOTION_SEEDS]
+    assert list(clips.description[:4]) == ["walk", clips.description.iloc[1], "run", clips.description.iloc[3]]
+    assert clips.description.iloc[1].startswith("walk-turn-") and clips.description.iloc[3].startswith("jog")
+    # the held-out HDM05 subject supplies what only HDM05 has
+    assert set(clips.subject[clips.type.isin(["sneak", "hop"])]) == {"tr"}
