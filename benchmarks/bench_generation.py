@@ -5,7 +5,9 @@
 One character and 64 at once, frames per second of the autoregressive loop (network step plus
 feeding the mean back), with the incremental stepper and with naive recomputation of the last
 CRL frames per new frame; max |incremental - full forward| over a generated sequence; and, over
-ten 60 s clips generated free-running from test seeds, with the mean output and with sampling,
+ten 60 s clips generated free-running from test seeds of locomotion and repeatable motion (walk,
+turning walk, run, jog, sneak, hop, walk-back, side step, waving, dash: issue 9's "Done when"),
+with the mean output and with sampling,
 the pose-level quality of seconds 30-60 (:mod:`mocapviz.tasks.generation_quality`): freezing
 share, activity and jitter ratios to the real clips of the same type, and the root height
 relative to the seed's (a drifting body shows there). The last line is a JSON object.
