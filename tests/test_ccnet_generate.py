@@ -130,3 +130,22 @@ def test_foot_ik_removes_sliding_and_keeps_bones(ds):
                                           "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")]
     others = [j for j in range(m.skeleton.n_joints) if j not in legs]
     np.testing.assert_allclose(out.positions()[:, others], m.positions()[:, others], atol=1e-9)
+
+
+def test_sampling_temperature_scales_the_draw_around_the_mean(ds, committed):
+    """The first sampled frame is mean + temperature * sigma * noise with the same noise: at
+    temperature 0 it is the mean output, at 0.5 half the distance of temperature 1."""
+    model, norm, _ = committed
+    _, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120")
+    types = one_hot([ti], model.cfg.n_types)
+    first = {}
+    for key, kw in {"mean": dict(sample=False), 0.0: dict(sample=True, temperature=0.0),
+                    0.5: dict(sample=True, temperature=0.5), 1.0: dict(sample=True, temperature=1.0)}.items():
+        gen = Generator(model, norm, seed=3, **kw).run(x, skel, types, 1, seed_traj=traj)
+        first[key] = gen.x_norm[0, -1, :model.cfg.n_continuous]
+    np.testing.assert_array_equal(first[0.0], first["mean"])
+    away = first[1.0] - first["mean"]
+    assert np.abs(away).max() > 0.01
+    np.testing.assert_allclose(first[0.5] - first["mean"], 0.5 * away, atol=1e-5)
+    with pytest.raises(ValueError, match="temperature"):
+        Generator(model, norm, sample=True, temperature=-1)

@@ -57,11 +57,15 @@ class Generator:
     """
 
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
-                 seed: int = 0, backend: str = "auto"):
+                 seed: int = 0, backend: str = "auto", temperature: float = 1.0):
+        if temperature < 0:
+            raise ValueError(f"temperature must be >= 0, got {temperature}")
         self.model = model.eval()
         self.norm = normaliser
         self.batch = batch
         self.sample = sample
+        # sampling draws from N(mean, (temperature * sigma)^2): 1 is the predicted Gaussian, 0 the mean
+        self.temperature = float(temperature)
         self.rng = np.random.default_rng(seed)
         self.cfg = model.cfg
         self.layout = FeatureLayout((self.cfg.n_x - 6) // 12, self.cfg.n_types)
@@ -82,7 +86,8 @@ class Generator:
         n, out = self.cfg.n_continuous, self.parts
         if self.sample:
             sigma = np.maximum(np.exp(-raw[:, out["s"]]), self.cfg.sigma_min)
-            dest[:, :n] = raw[:, out["mean"]] + sigma * self.rng.standard_normal(sigma.shape, dtype=np.float32)
+            noise = self.rng.standard_normal(sigma.shape, dtype=np.float32)
+            dest[:, :n] = raw[:, out["mean"]] + self.temperature * sigma * noise
         else:
             dest[:, :n] = raw[:, out["mean"]]
         dest[:, :n][:, self.constant] = 0.0
