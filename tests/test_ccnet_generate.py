@@ -45,12 +45,14 @@ def seed_inputs(ds, clip, n_seed=40):
     return row, a["x"][None, :n_seed], a["traj"][None, :n_seed], a["skel"][None], a["type_index"]
 
 
-@pytest.mark.parametrize("residual", [False, True])
+@pytest.mark.parametrize("residual", ["none", "all", "rotations"])
 @pytest.mark.parametrize("backend", ["numpy", "torch"])
 def test_incremental_generation_equals_full_recompute(ds, committed, backend, residual):
     model, norm, _ = committed
-    if residual:  # the same weights as a residual network: the generator adds x_t to the mean
-        model = CCNet(replace(model.cfg, residual=True)).eval()
+    if residual != "none":  # the same weights as a residual network: the generator adds x_t to the mean
+        rot = ds.layout.x_blocks["rot"]
+        kw = dict(residual=True) if residual == "all" else dict(residual_ranges=((rot.start, rot.stop),))
+        model = CCNet(replace(model.cfg, **kw)).eval()
         model.load_state_dict(committed[0].state_dict())
     _, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120")
     types = one_hot([ti], model.cfg.n_types)
@@ -64,7 +66,7 @@ def test_incremental_generation_equals_full_recompute(ds, committed, backend, re
         full = full_recompute_outputs(model, norm, gen, skel, types, used)
     # (the committed weights run as a residual network drift to means of ~1e2: float32 rounding
     # is then relative)
-    assert np.abs(inc - full).max() < 1e-5 * (np.abs(full).max() if residual else 1.0)
+    assert np.abs(inc - full).max() < 1e-5 * (np.abs(full).max() if residual != "none" else 1.0)
     # the generated frames are the fed-back means (not copies of the seed), except the channels
     # constant in training, which hold their training value (0 normalised)
     n, const = model.cfg.n_continuous, norm.constant_channels()

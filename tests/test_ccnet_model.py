@@ -115,6 +115,22 @@ def test_residual_mean_adds_the_input_frame():
     assert not CCNetConfig.from_json(small_cfg(residual=True).to_json().replace(', "residual": true', "")).residual
 
 
+def test_residual_ranges_add_the_input_frame_on_those_channels_only():
+    plain, part = net(small_cfg()), CCNet(small_cfg(residual_ranges=((0, 3), (5, 7)))).eval()
+    part.load_state_dict(plain.state_dict())
+    x, skel, traj, types = inputs(small_cfg())
+    with torch.no_grad():
+        a, b = plain(x, skel, traj, types)["mean"], part(x, skel, traj, types)["mean"]
+    n = small_cfg().n_continuous
+    added = torch.zeros(n, dtype=torch.bool)
+    added[[0, 1, 2, 5, 6]] = True
+    assert torch.allclose(b[..., added], a[..., added] + x[..., :n][..., added])
+    assert torch.equal(b[..., ~added], a[..., ~added])
+    assert CCNetConfig.from_json(part.cfg.to_json()) == part.cfg
+    with pytest.raises(ValueError, match="residual_ranges"):
+        small_cfg(residual_ranges=((0, n + 1),))
+
+
 def test_fed_back_inputs_are_the_models_own_means():
     from mocapviz.training.trainer import fed_back
     cfg = small_cfg(residual=True)

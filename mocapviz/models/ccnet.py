@@ -5,7 +5,8 @@ k=1 convs and the two taps of each k=2 dilated conv as matmuls (much faster than
 Input index t carries the frame x_t and the controls c_{t+1} of the frame to predict; output
 index t is the Gaussian of x_{t+1} (mean, sigma), its foot-contact logits, and the predicted
 trajectory control c^d_{t+2} (mean, sigma), fed back when no user control is given. With
-``cfg.residual`` the decoder's mean output is the change x_{t+1} - x_t, and the mean adds x_t.
+``cfg.residual`` (every channel) or ``cfg.residual_ranges`` (some) the decoder's mean output
+there is the change x_{t+1} - x_t, and the mean adds x_t.
 
 SRB i (Fig. 2): z = DilatedCausalConv_{k=2,d_i}(h) + Conv1x1_s(c^s) + Conv1x1_d(c^d) + Conv1x1_t(c^t);
 g = tanh(z_a) * sigmoid(z_b) (WaveNet's gated unit, 2C channels split in two halves);
@@ -73,7 +74,9 @@ class CCNet(nn.Module):
         """The config of ``train_cfg`` (size preset, dilations, dropout, residual) for a feature layout."""
         return make_config(train_cfg.size, n_x=layout.n_x, n_skel=layout.n_skel, n_traj=layout.n_traj,
                            n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout,
-                           residual=train_cfg.residual)
+                           residual=train_cfg.residual,
+                           residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
+                                                 for b in train_cfg.residual_blocks))
 
     def stepper(self, batch: int = 1, backend: str = "torch"):
         """Incremental engine over this model's current weights: "torch" (:class:`CCNetStepper`,
@@ -98,8 +101,11 @@ class CCNet(nn.Module):
             h, s = blk(h, skel, traj, types)
             skip = skip + s
         out = self.split_output(F.linear(torch.relu(skip), self.decoder.weight[:, :, 0], self.decoder.bias))
-        if self.cfg.residual:
-            out["mean"] = out["mean"] + x[..., :self.cfg.n_continuous]
+        if self.cfg.residual_slices:
+            add = torch.zeros_like(out["mean"])
+            for sl in self.cfg.residual_slices:
+                add[..., sl] = x[..., sl]
+            out["mean"] = out["mean"] + add
         return out
 
     def split_output(self, out: torch.Tensor) -> dict[str, torch.Tensor]:

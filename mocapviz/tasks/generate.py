@@ -149,8 +149,9 @@ class Generator:
             else:
                 c_next = pred_traj
             raw = self._step(x_t, np.ascontiguousarray(c_next))
-            if self.cfg.residual:  # the decoder gave the change from x_t
-                raw[:, self.parts["mean"]] += x_t[:, :self.cfg.n_continuous]
+            mean = raw[:, self.parts["mean"]]  # a view: the residual channels get x_t added in place
+            for sl in self.cfg.residual_slices:  # there the decoder gave the change from x_t
+                mean[:, sl] += x_t[:, sl]
             if self.keep_outputs:
                 self.raw_outputs.append(raw.copy())
             if t + 1 >= s:

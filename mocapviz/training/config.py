@@ -29,6 +29,7 @@ class TrainConfig:
     dilations: tuple[int, ...] = (2,) * 20
     dropout: float = 0.5
     residual: bool = False          # the network predicts x_{t+1} - x_t (CCNetConfig.residual)
+    residual_blocks: tuple[str, ...] = ()  # ... only on these blocks of x (FeatureLayout.x_blocks)
     feedback_passes: int = 0        # inputs of the window's second half: the model's own means, k passes
     optimizer: str = "rmsprop"      # "rmsprop" (the paper's) or "adam" (OPTIMIZERS)
     seed: int = 0
@@ -54,6 +55,7 @@ class TrainConfig:
     def from_json(cls, s: str | dict) -> "TrainConfig":
         d = json.loads(s) if isinstance(s, str) else dict(s)  # runs before "model" existed were CCNet
         d["lambdas"], d["dilations"] = tuple(d["lambdas"]), tuple(d["dilations"])
+        d["residual_blocks"] = tuple(d.get("residual_blocks", ()))
         return cls(**d)
 
 
