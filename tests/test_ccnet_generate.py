@@ -120,6 +120,7 @@ def test_generated_motion_keeps_moving(ds, committed, clip):
 def test_foot_ik_removes_sliding_and_keeps_bones(ds):
     row = ds.clip_row("35_01")
     m = ds.clip_motion(row)
+    assert m.name == "35_01"  # the clip's name (it was pandas' Series.clip method)
     contacts = m.meta["contacts"]
     before = foot_sliding(m.positions(), contacts, m.fps, foot_joints(m.skeleton))
     out = remove_foot_sliding(m, contacts)

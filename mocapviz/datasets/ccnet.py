@@ -119,7 +119,7 @@ class CCNetDataset:
         r = self.clips.iloc[clip_row]
         return feat.features_to_motion(self.x[int(r.start):int(r.stop)], self.skeleton(clip_row),
                                        (r.root_x, r.root_y, r.root_z), r.heading, self.config.fps,
-                                       name=r.clip)
+                                       name=r["clip"])
 
     def clip_row(self, name: str) -> int:
         hits = np.flatnonzero(self.clips["clip"].values == name)
