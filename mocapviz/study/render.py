@@ -1,7 +1,7 @@
 """Side-by-side videos of two clips for a two-alternative forced-choice question.
 
 Both clips are resampled to the same frame rate and cut to the same length, drawn with the same
-colour, camera rule and ground by :class:`mocapviz.viz.scene.ClipScene` (pyvista, off screen),
+colour, camera distance and ground by :class:`mocapviz.viz.scene.ClipScene` (pyvista, off screen),
 and their frames are put next to each other with a white gap. Nothing on screen says which model
 made which side: the panels are captioned only "Left" and "Right".
 """
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapviz.motion import Motion
-from mocapviz.viz.scene import ClipScene, save_frames
+from mocapviz.viz.scene import ClipScene, aim_camera, save_frames
 
 PANEL_SIZE = (360, 300)   # (width, height) pixels of each side; even, as H.264 wants
 GAP = 8                   # white pixels between the panels (even: the total width stays even)
@@ -31,11 +31,17 @@ def pair_frames(left: Motion, right: Motion, fps: float = 30.0, seconds: float |
     n = min(m.n_frames for m in clips)
     if seconds is not None:
         n = min(n, int(round(seconds * fps)))
+    scenes = [ClipScene(m[:n], color=COLOR, window_size=panel_size, label=caption)
+              for m, caption in zip(clips, ("Left", "Right"))]
+    # One camera distance for both (the larger of the two fits), so that a body of the same
+    # size looks the same size on either side: the scale must not tell the clips apart.
+    distance = max(np.linalg.norm(np.subtract(s.p.camera.position, s.p.camera.focal_point)) for s in scenes)
+    for s in scenes:
+        aim_camera(s.p, s.p.camera.focal_point, s.view_dir, distance, s.elevation)
     panels = []
-    for m, caption in zip(clips, ("Left", "Right")):
-        scene = ClipScene(m[:n], color=COLOR, window_size=panel_size, label=caption)
-        panels.append([scene.image(i) for i in range(n)])
-        scene.close()
+    for s in scenes:
+        panels.append([s.image(i) for i in range(n)])
+        s.close()
     white = np.full((panel_size[1], gap, 3), 255, dtype=np.uint8)
     return np.stack([np.concatenate([a[..., :3], white, b[..., :3]], axis=1) for a, b in zip(*panels)])
 
