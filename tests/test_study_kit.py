@@ -78,3 +78,36 @@ def test_pair_frames_put_each_clip_on_its_side(two_clips, tmp_path):
     frames = [f for f in imageio.get_reader(mp4)]
     assert len(frames) == 4 and frames[0].shape == (80, 200, 3)
     assert len(imageio.mimread(gif)) == 4
+
+
+def test_study_pairs_real_against_generated_from_the_same_seed(data_dir):
+    import torch
+
+    from data_prep import zoo
+    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+    from mocapviz.study.analysis import intransitive_triads
+    from mocapviz.study.pairs import study_pairs, usable_rows
+
+    torch.set_num_threads(1)
+    ds = build_dataset(DatasetConfig.quick(), data_dir, progress=False)
+    model, norm, _ = zoo.load("ccnet_default", retrain_if_missing=False)
+    rows = usable_rows(ds, "test", 1.0, n_types=model.cfg.n_types)
+    assert rows and all(ds.clips.stop[i] - ds.clips.start[i] >= 120 for i in rows)
+    assert all(ds.clips.type_index[i] < model.cfg.n_types for i in rows)
+    rows = rows[:2]
+    pairs = study_pairs(ds, {"m1": (model, norm), "m2": (model, norm)}, rows, 1.0)
+    assert [p.group for p in pairs] == ["mocap vs m1", "mocap vs m2"] * 2 + ["m2 vs m1"] * 2
+    real, gen = pairs[0].a, pairs[0].b
+    assert real.item == f"mocap:{ds.clips['clip'][rows[0]]}" and real.model == "mocap" and gen.model == "m1"
+    # the real side is the clip's own frames after the 60-frame seed
+    np.testing.assert_allclose(real.motion.positions(), ds.clip_motion(rows[0])[60:120].positions(), atol=1e-9)
+    assert gen.motion.n_frames == 60 and gen.motion.fps == 60
+    # the generated side continues from the seed: it starts where the real clip's seed ended
+    start = np.linalg.norm(gen.motion.root_positions[0] - ds.clip_motion(rows[0]).root_positions[59])
+    assert start < 0.1
+    # the two "models" are the same network: the same clips
+    np.testing.assert_allclose(pairs[1].b.motion.positions(), gen.motion.positions())
+    # a clip's three pairs span its three sequences, so choices among them can form a triad
+    mocap, m1, m2 = real.item, gen.item, pairs[1].b.item
+    assert {pairs[4].a.item, pairs[4].b.item} == {m1, m2} and pairs[4].b.item == m1  # m1 counted
+    assert intransitive_triads([mocap, m1, m2], [m1, m2, mocap]) == 1
