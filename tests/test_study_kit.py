@@ -6,8 +6,8 @@ import json
 
 import numpy as np
 import pytest
-
 from conftest import CMU_FILES, NO_DATA_REASON
+
 from mocapviz.study.kit import Clip, Pair, plan, write_page
 
 

@@ -30,7 +30,7 @@ def pair_frames(left: Motion, right: Motion, fps: float = 30.0, seconds: float |
     clips = [m.resample(fps) for m in (left, right)]
     n = min(m.n_frames for m in clips)
     if seconds is not None:
-        n = min(n, int(round(seconds * fps)))
+        n = min(n, round(seconds * fps))
     scenes = [ClipScene(m[:n], color=COLOR, window_size=panel_size, label=caption)
               for m, caption in zip(clips, ("Left", "Right"))]
     # One camera distance for both (the larger of the two fits), so that a body of the same
