@@ -256,8 +256,10 @@ display(t4[["quantity", "method", "paper", "value", "low", "high", "agrees"]])
 #   1.8) and fits 16; its SD then fits 16 counts as a population SD (ddof 0), as do ERD-4LR's and
 #   PFNN's. So Table 2's SDs look like `numpy.std` defaults on 16 participants in every group,
 #   against the text's 15 valid DAE-LSTM questionnaires. CCNet's 1.165 fits neither reading
-#   (16 integers give 1.1659 at the nearest, a truncation?). In Table 3, the PFNN group's mean
-#   11.45 fits neither 15 nor 16 participants.
+#   (16 integers give 1.1659 at the nearest, a truncation?). In Table 3, whose caption calls the
+#   ± a "variance", the DAE-LSTM and ERD-4LR groups fit 16 integer counts with the ± read as an
+#   SD (so we read it so in section 5); the PFNN group's mean 11.45 fits neither 15 nor 16
+#   participants.
 # * **Table 4 is consistent with itself** (MS, F, p and F-critical follow from its SS and df)
 #   **but not with Table 2**: the between-group SS of Table 2's four means with 16 per group is
 #   233.5, not 346.69, and the within-group SS from its SDs is 70.7 (ddof 1) or 75.5 (ddof 0),
