@@ -20,7 +20,7 @@ _HOMES = {
     "ccnet": ("plot_controls", "plot_training_curves"),
     "body_plots": ("plot_counts", "plot_durations", "plot_segmentation"),
     "scene": ("ClipScene", "add_ground", "aim_camera", "choose_notebook_backend", "distance_to_fit",
-              "frame_strip", "new_plotter", "render_clip", "save_screenshot", "set_notebook_backend",
+              "frame_strip", "new_plotter", "render_clip", "save_frames", "save_screenshot", "set_notebook_backend",
               "show", "skeleton_lineup", "skeleton_mesh"),
     "body_scene": ("body_polydata", "cycle_strip", "cycle_strips", "retarget_overlay", "shape_lineup"),
 }

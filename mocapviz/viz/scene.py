@@ -269,12 +269,19 @@ def render_clip(motion: Motion, paths, fps: float = 30.0, max_frames: int | None
     frames = [scene.image(int(i)) for i in tqdm(idx, desc=f"render {motion.name}", disable=not progress,
                                                  leave=False)]
     scene.close()
+    return save_frames(frames, paths, real_fps)
+
+
+def save_frames(frames, paths, fps: float) -> list[Path]:
+    """Write RGB frames (T, H, W, 3) uint8 at ``fps`` to each of ``paths`` (.gif and/or .mp4:
+    H.264, yuv420p, so browsers play it)."""
+    paths = [Path(x) for x in ([paths] if isinstance(paths, (str, Path)) else paths)]
     for path in paths:
         path.parent.mkdir(parents=True, exist_ok=True)
         if path.suffix == ".gif":
-            imageio.mimsave(path, frames, duration=1000.0 / real_fps, loop=0)
+            imageio.mimsave(path, frames, duration=1000.0 / fps, loop=0)
         elif path.suffix == ".mp4":
-            imageio.mimsave(path, frames, fps=real_fps, macro_block_size=1, codec="libx264",
+            imageio.mimsave(path, frames, fps=fps, macro_block_size=1, codec="libx264",
                             quality=7, pixelformat="yuv420p")
         else:
             raise ValueError(f"{path}: only .gif and .mp4 are written")
