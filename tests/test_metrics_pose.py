@@ -120,3 +120,34 @@ def test_noise_on_the_real_walk_is_jitter(walks):
     summary = metrics.pose_metrics(noisy.positions(), noisy.skeleton, noisy.fps)
     assert summary["jitter"] == pytest.approx(metrics.jitter(noisy_l, FPS))
     assert summary["freezing_share"] == 0.0
+
+
+def test_pose_bank_distance_by_hand():
+    bank = metrics.PoseBank(np.array([np.zeros((2, 3)), np.full((2, 3), 0.1)]))
+    q = np.zeros((1, 2, 3))
+    q[0, 0, 0] = 0.03  # 3 cm off the first pose at one of two joints: RMS 0.03 / sqrt(2)
+    np.testing.assert_allclose(bank.distance(q, 1.0), [0.03 / np.sqrt(2)])
+    np.testing.assert_allclose(bank.distance(np.full((1, 2, 3), 0.2), 2.0), [0.0], atol=1e-12)  # a 2x body
+    with pytest.raises(ValueError, match="joints"):
+        bank.distance(np.zeros((1, 3, 3)), 1.0)
+
+
+def test_a_walk_drifting_into_impossible_poses_is_seen(walks):
+    """The failure activity and jitter miss: every joint's rotation drifts smoothly away from the
+    real walk (up to 1.5 rad by the end) while the pose changes at the walk's own pace."""
+    from mocapviz.rotations import matrix_to_rotvec, rotvec_to_matrix
+    m = walks["35_01"]
+    h = m.skeleton.configuration()[0]
+    bank = metrics.PoseBank(np.concatenate([local_of(w) / w.skeleton.configuration()[0]
+                                            for k, w in walks.items() if k != "35_01"]))
+    rv = matrix_to_rotvec(m.rotations)
+    drift = np.linspace(0, 1, m.n_frames)[:, None, None] * np.random.default_rng(0).uniform(-1.5, 1.5, rv.shape[1:])
+    drift[:, 0] = 0.0
+    tumbling = Motion(m.skeleton, rotvec_to_matrix(rv + drift), m.root_positions, m.fps)
+    real_l, tumbling_l = local_of(m), local_of(tumbling)
+    real_d, tumbling_d = np.median(bank.distance(real_l, h)), np.median(bank.distance(tumbling_l, h))
+    assert real_d < 0.06                 # a held-out real walk: a few % of the root height
+    assert tumbling_d > 4 * real_d       # measured: 0.034 vs 0.25
+    # ... while activity and jitter call it a walk
+    assert 0.8 < metrics.ratio(metrics.activity(tumbling_l, FPS), [metrics.activity(real_l, FPS)]) < 1.25
+    assert metrics.ratio(metrics.jitter(tumbling_l, FPS), [metrics.jitter(real_l, FPS)]) < 1.5

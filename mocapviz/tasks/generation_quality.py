@@ -6,6 +6,10 @@ c^d), measured over the second half of the generation with :mod:`mocapviz.metric
 
 - freezing share (1 s windows of root-relative joint positions under 1 cm/s),
 - activity and jitter as ratios to the mean of the real clips of the seed's motion type,
+- pose distance: per frame, how far the pose is from the nearest training pose
+  (:class:`mocapviz.metrics.PoseBank`), median over frames, as a ratio to the same for the
+  held-out real clips of the type: a body tumbling through impossible poses at a walk's pace
+  has walk-like activity and jitter, but not walk-like poses;
 - root height as a ratio to the seed's mean root height: a body that drifts (sinks under the
   floor, flies off) shows here even when its activity and jitter look plausible.
 """
@@ -18,7 +22,7 @@ from mocapviz import metrics
 from mocapviz.features.motion_types import one_hot
 from mocapviz.tasks.generate import Generator
 
-QUALITY_KEYS = ("freezing_share", "activity_ratio", "jitter_ratio", "root_height_ratio")
+QUALITY_KEYS = ("freezing_share", "activity_ratio", "jitter_ratio", "pose_distance_ratio", "root_height_ratio")
 
 
 # The seeds of issue 9's "Done when": locomotion and repeatable motion, where a real performer
@@ -77,17 +81,41 @@ def real_reference(ds, motion_type: str) -> tuple[float, float]:
 SEED_FRAMES = 48
 
 
+def pose_bank(ds, every: int = 4) -> metrics.PoseBank:
+    """The training clips' poses (every ``every``-th frame) as a :class:`~mocapviz.metrics.PoseBank`."""
+    poses = []
+    for i in np.flatnonzero((ds.clips.split == "train").values):
+        m = ds.clip_motion(int(i))[::every]
+        poses.append(metrics.local_positions(m.positions(), m.skeleton) / m.skeleton.configuration()[0])
+    return metrics.PoseBank(np.concatenate(poses))
+
+
+def pose_distance(motion, bank: metrics.PoseBank) -> float:
+    """Median over frames of ``motion``'s distance to the nearest bank pose (root heights)."""
+    local = metrics.local_positions(motion.positions(), motion.skeleton)
+    return float(np.median(bank.distance(local, motion.skeleton.configuration()[0])))
+
+
+def real_pose_distance(ds, bank: metrics.PoseBank, motion_type: str) -> float:
+    """Mean :func:`pose_distance` of the held-out (validation and test) clips of ``motion_type``."""
+    rows = np.flatnonzero(((ds.clips.type == motion_type) & (ds.clips.split != "train")).values)
+    return float(np.mean([pose_distance(ds.clip_motion(int(i)), bank) for i in rows]))
+
+
 def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None, n_seed: int = SEED_FRAMES,
-                       seed: int = 0) -> dict:
+                       seed: int = 0, temperature: float = 1.0, bank: metrics.PoseBank | None = None) -> dict:
     """Generate ``seconds`` after an ``n_seed``-frame seed from each clip row of ``rows`` (default
     :func:`locomotion_seeds`); the :data:`QUALITY_KEYS` over the second half of the generated frames,
     per clip (``per_clip``: clip name -> dict, plus its ``type``) and as [min, median, max] over
     the clips (``summary``). Also returns the generated motions (``motions``, seed included,
-    no IK)."""
+    no IK). ``bank``: the training poses (:func:`pose_bank`, built when not given: pass it
+    when calling more than once)."""
     rows = locomotion_seeds(ds) if rows is None else list(rows)
     x, traj, skel, types = seed_batch(ds, rows, n_seed, model.cfg.n_types)
     n = round(seconds * ds.config.fps)
-    gen = Generator(model, norm, batch=len(rows), sample=sample, seed=seed).run(x, skel, types, n, seed_traj=traj)
+    gen = Generator(model, norm, batch=len(rows), sample=sample, seed=seed, temperature=temperature).run(
+        x, skel, types, n, seed_traj=traj)
+    bank = pose_bank(ds) if bank is None else bank
     refs, per_clip, motions = {}, {}, {}
     for k, i in enumerate(rows):
         r = ds.clips.iloc[i]
@@ -95,11 +123,12 @@ def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None,
         half = m[n_seed + n // 2:]
         local = metrics.local_positions(half.positions(), half.skeleton)
         if r["type"] not in refs:
-            refs[r["type"]] = real_reference(ds, r["type"])
-        act, jit = refs[r["type"]]
+            refs[r["type"]] = (*real_reference(ds, r["type"]), real_pose_distance(ds, bank, r["type"]))
+        act, jit, dist = refs[r["type"]]
         per_clip[r["clip"]] = dict(
             type=r["type"], freezing_share=metrics.freezing_share(local, m.fps),
             activity_ratio=metrics.activity(local, m.fps) / act, jitter_ratio=metrics.jitter(local, m.fps) / jit,
+            pose_distance_ratio=pose_distance(half, bank) / dist,
             root_height_ratio=float(half.root_positions[:, 1].mean() / m.root_positions[:n_seed, 1].mean()))
         motions[r["clip"]] = m
     summary = {key: [round(float(f(v)), 3) for f in (np.min, np.median, np.max)]
