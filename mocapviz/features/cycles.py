@@ -23,7 +23,8 @@ kept, candidates overlapping it are discarded, and so on.
 Rejection (the rule; rejected cycles are returned with their reason, not dropped silently):
 
 - ``edge``: the cycle starts or ends within :data:`EDGE_S` of the clip's first or last frame
-  (a cut-off clip: its first or last minimum may be where the cut fell, not a toe-off);
+  (a cut-off clip: its first or last minimum may be where the cut fell, not a toe-off; a
+  cycle cut mid-way by the clip has no extension event at the cut and is never a candidate);
 - ``shape``: the Pearson correlation between the cycle's curves (uniformly resampled to the
   reference's length) and the matched reference's is below :data:`MIN_CORRELATION`: DTW's
   warping can fold a different movement onto the reference at a small cost, a correlation
@@ -53,7 +54,7 @@ MAX_CYCLE_S = 3.0
 DTW_FPS = 30.0  # curves are compared at 30 fps (cycles of 0.3 s still have 9 samples)
 CURVES = ("flexion L", "flexion R", "abduction L", "abduction R")
 EVENT_PROMINENCE = 10.0  # degrees: a thigh's extension minimum must stand out by this much
-EDGE_S = 0.1
+EDGE_S = 1 / 30  # one frame at 30 fps
 MIN_CORRELATION = 0.6
 HALF_CYCLE_TRAVEL = 0.5  # a cycle travelling less than this share of its group's median is half a cycle
 
@@ -175,8 +176,12 @@ def curve_correlation(segment: np.ndarray, reference: np.ndarray) -> float:
 
 def extension_events(curve: np.ndarray, fps: float, prominence: float = EVENT_PROMINENCE) -> np.ndarray:
     """Frames of a thigh's maximal extension: minima of its flexion curve (F,) standing out by
-    ``prominence`` degrees, at least 0.15 s apart."""
-    return find_peaks(-curve, prominence=prominence, distance=max(1, int(0.15 * fps)))[0]
+    ``prominence`` degrees, at least 0.15 s apart. A side that runs into the clip's first or
+    last frame does not need the rise (the clip may end just after a toe-off); whether such a
+    cycle is cut off is the edge rule's call."""
+    pad = np.full(1, curve.max() + 2 * prominence)
+    return find_peaks(-np.concatenate([pad, curve, pad]), prominence=prominence,
+                      distance=max(1, int(0.15 * fps)))[0] - 1
 
 
 def _as_list(refs) -> list[References]:
