@@ -19,7 +19,8 @@ faces where it goes (:func:`heading_offset`, notebook 10), so they are typed ``w
 shared data holds no side-step clip, hence no side-step reference.
 
 Split and scales: :mod:`data_prep.body4d_splits` (held-out source HDM05, held-out subjects CMU
-35 and 09; Gamma's scale from training cycles only, stored in ``meta['gamma_scale']``).
+35 and 09, held-out Bandai takes; Gamma's scale from training cycles only, stored in
+``meta['gamma_scale']``).
 
 ``python -m data_prep build body4d [--quick]`` or ``python -m data_prep.body4d_dataset``.
 Cached under ``cache/body4d/`` keyed by the config, the data files, the code and anny's version.
@@ -73,6 +74,8 @@ class Body4DConfig:
     sources: tuple = SOURCES
     test_sources: tuple = splits.TEST_SOURCES
     test_subjects: tuple = splits.TEST_SUBJECTS
+    takes_share: float = splits.TAKES_SHARE  # Bandai takes held out per content
+    seed: int = 0
 
     def key(self) -> str:
         return json.dumps(dataclasses.asdict(self), sort_keys=True)
@@ -202,16 +205,20 @@ def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:
     subjects["source"] = [source_of[s] for s in subjects["subject"]]
     subjects["gender_recorded"] = [s in splits.SUBJECT_GENDER for s in subjects["subject"]]
 
-    def held_out(source, subject):
-        return splits.held_out_set(source, subject, config.test_sources, config.test_subjects)
+    # drawn from the whole catalog, so a config's subset (quick) does not change which takes test
+    test_takes = splits.held_out_takes(build_catalog(root, sources=config.sources), config.takes_share, config.seed)
 
+    def held_out(source, subject, clip=""):
+        return splits.held_out_set(source, subject, clip, config.test_sources, config.test_subjects, test_takes)
+
+    # a subject is 'test' when none of its cycles trains (Bandai's bodies also have test takes)
     subjects["split"] = ["test" if held_out(r.source, r.subject) else "train" for r in subjects.itertuples()]
     kept = chi_joint_indices(body.joint_names)
     targets = {s: body.rest_skeleton(betas[s]) for s in betas}
     chis, rows, rejected, clip_rows = [], [], [], []
     for r in tqdm(list(cat.itertuples(index=False)), desc="body4d clips", disable=not progress):
         src = load_clip(r._asdict(), root)
-        test_set = held_out(r.source, r.subject)
+        test_set = held_out(r.source, r.subject, r.clip)
         info = dict(subject=r.subject, source=r.source, clip=r.clip, motion_type=r.motion_type,
                     type=MOTION_TYPES[r.motion_type], style=r.style, split="test" if test_set else "train",
                     test_set=test_set)
@@ -254,6 +261,7 @@ def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:
                 reference=dict(clip=REFERENCE_CLIP, frames=list(REFERENCE_FRAMES)),
                 references={k: list(v) for k, v in REFERENCES.items()},
                 test_sources=list(config.test_sources), test_subjects=list(config.test_subjects),
+                test_takes=sorted(test_takes),
                 build_seconds=round(time.perf_counter() - t0, 1))
     return Body4DDataset(chi, beta, cycles, subjects, pd.DataFrame(clip_rows), meta, rejected)
 

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from data_prep.body4d_dataset import Body4DConfig, build_dataset
-from data_prep.body4d_splits import gamma_scale
+from data_prep.body4d_splits import gamma_scale, held_out_takes
 from mocapviz.datasets.body4d import Body4DDataset
 
 
@@ -37,7 +37,9 @@ def test_layout_ranges_and_split(built):
     assert set(ds.cycles.loc[ds.cycles.subject == "cmu07", "split"]) == {"train"}
     assert set(ds.cycles.loc[ds.cycles.subject == "bd", "test_set"]) <= {"held_out_source"}
     assert set(ds.cycles.loc[ds.cycles.subject == "cmu09", "test_set"]) == {"held_out_subjects"}
-    assert set(ds.cycles.loc[ds.cycles.source == "bandai", "split"]) == {"train"}
+    bandai = ds.cycles[ds.cycles.source == "bandai"]
+    assert len(bandai) and set(bandai["test_set"]) <= {"", "held_out_takes"}
+    np.testing.assert_array_equal(bandai["clip"].isin(ds.meta["test_takes"]), bandai["split"] == "test")
     assert (ds.subjects.err_after_cm < ds.subjects.err_before_cm).all()
     assert (ds.subjects.set_index("subject").loc[["bd"], "gender"] == 0).all()  # HDM05's actors are men
     assert ds.meta["chi_joints"][0] == "Hips" and len(ds.meta["chi_joints"]) == 21
@@ -113,3 +115,13 @@ def test_counts_by_source_and_type(built):
     assert table.loc[("total", ""), "total"] == len(real)
     for (source, typ), g in real.groupby(["source", "type"]):
         assert table.loc[(source, typ), "total"] == len(g)
+
+
+def test_held_out_takes_share_per_content():
+    cat = pd.DataFrame({"source": ["bandai"] * 12 + ["cmu"],
+                        "description": ["walk"] * 10 + ["run"] * 2 + ["walk"],
+                        "clip": [f"w{i}" for i in range(10)] + ["r0", "r1", "c0"]})
+    takes = held_out_takes(cat, share=0.2, seed=3)
+    assert len(takes & {f"w{i}" for i in range(10)}) == 2  # 20 % of 10
+    assert not takes & {"r0", "r1", "c0"}  # under three takes: none; other sources: never
+    assert held_out_takes(cat, share=0.2, seed=3) == takes
