@@ -51,7 +51,7 @@ def held_out_takes(catalog: pd.DataFrame, share: float = TAKES_SHARE, seed: int 
     out = []
     bandai = catalog[catalog["source"] == "bandai"]
     for _, g in bandai.groupby("description", sort=True):
-        n = max(int(round(share * len(g))), int(len(g) >= 3))
+        n = max(round(share * len(g)), int(len(g) >= 3))
         out += list(rng.permutation(g["clip"].values)[:n])
     return frozenset(out)
 

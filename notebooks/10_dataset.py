@@ -64,8 +64,7 @@ from data_prep.catalog import build_catalog
 from data_prep.sources import SOURCES, find_data_dir
 from mocapviz.bodies import BETA_LABELS, body_model
 from mocapviz.bodies.retarget import retarget, retarget_report
-from mocapviz.features.cycles import (EDGE_S, HALF_CYCLE_TRAVEL, MIN_CORRELATION, find_cycles, hip_angles,
-                                      hip_flexion)
+from mocapviz.features.cycles import EDGE_S, HALF_CYCLE_TRAVEL, MIN_CORRELATION, find_cycles, hip_flexion
 from mocapviz.viz import (cycle_strips, plot_counts, plot_durations, plot_segmentation, retarget_overlay,
                           save_figure, set_notebook_backend, shape_lineup, show, subject_colors)
 
