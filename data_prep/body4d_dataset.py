@@ -1,15 +1,26 @@
 """Build and cache the 4D body-motion dataset (multi-frame 4D motion paper, §3.1, §4.1-4.2).
 
-Real mocap (CMU walk/run BVH, HDM05 jog/sneak/hop ASF/AMC) -> per subject, anny's body shape
-fitted to the subject's bone lengths -> every clip retargeted onto that body -> single gait
-cycles found by DTW on hip rotation curves -> each cycle as chi = [Theta, Gamma, Phi]
-(100 time-stamped frames) with the subject's beta. Meshes are not stored: mesh a cycle on
-demand with :meth:`mocapviz.datasets.body4d.Body4DDataset.mesh`.
+Real mocap (CMU walk/run BVH, HDM05 jog/sneak ASF/AMC, Bandai walks, turning walks, runs,
+walk-back BVH) -> per subject, anny's body shape fitted to the subject's bone lengths under a
+shape prior (:mod:`mocapviz.bodies.shape_fit`; recorded genders in
+:data:`data_prep.body4d_splits.SUBJECT_GENDER`) -> every clip retargeted onto that body ->
+single gait cycles found by DTW on the hip rotation curves (flexion and abduction of both
+thighs) against real references of forward and backward walking
+(:mod:`mocapviz.features.cycles`) -> cut-off, misshapen and half cycles rejected and listed
+(``ds.rejected``) -> each cycle as chi = [Theta, Gamma, Phi] (100 time-stamped frames) with
+the subject's beta. Meshes are not stored: mesh a cycle on demand with
+:meth:`mocapviz.datasets.body4d.Body4DDataset.mesh`.
 
-Train/test split by subject (whole people held out, so that the test bodies are unseen by a
-shape-conditioned decoder): HDM05 actors mm and tr (the hold-out the catalog and CCNet use)
-plus CMU subject 35 (walk) and 09 (run), so that every motion type with cycles has test
-cycles. The reference cycle's subject (CMU 07) stays in training.
+Bandai is re-based onto a T-pose rest with world-aligned joint frames first (as for CCNet,
+:func:`data_prep.ccnet_dataset.bandai_alignment`), so that its hip curves and rest alignment
+mean what they mean for CMU and HDM05. Its ``walk-left``/``walk-right`` takes (the catalog's
+``side-step-left/right``) are forward walks towards the left/right, not side steps: the pelvis
+faces where it goes (:func:`heading_offset`, notebook 10), so they are typed ``walk``. The
+shared data holds no side-step clip, hence no side-step reference.
+
+Split and scales: :mod:`data_prep.body4d_splits` (held-out source HDM05, held-out subjects CMU
+35 and 09, held-out Bandai takes; Gamma's scale from training cycles only, stored in
+``meta['gamma_scale']``).
 
 ``python -m data_prep build body4d [--quick]`` or ``python -m data_prep.body4d_dataset``.
 Cached under ``cache/body4d/`` keyed by the config, the data files, the code and anny's version.
@@ -21,6 +32,7 @@ import dataclasses
 import hashlib
 import json
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,34 +40,42 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+import data_prep.body4d_splits as splits
 import mocapviz.datasets.body4d as container
 from data_prep.cached import load_or_build
 from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
 from data_prep.sources import find_data_dir
 from mocapviz.datasets.body4d import Body4DDataset
 
-DATASET_VERSION = 1
-# The cyclic locomotion clips and the short type names used in the dataset.
+DATASET_VERSION = 2  # 2: Bandai, hip flexion + abduction, rejection, source split, train-only scales
+# The cyclic locomotion clips (the catalog's motion_type) and the type names used in the dataset.
 MOTION_TYPES = {"walk": "walk", "run": "run", "jogLeftCircle4StepsRstart": "jog",
-                "sneak2StepsLStart": "sneak", "hopBothLegs1hops": "hop"}
-# Left-start reference cycle: CMU 07_01 (subject 07, straight walk), from the left hip's
-# maximal extension (left toe-off) at frame 134 to the next at frame 261 (1.06 s), chosen by
-# hand on the plot of the hip flexion curves; its mirror image is the right-start reference.
+                "sneak2StepsLStart": "sneak", "walk-turn-left": "turn_left", "walk-turn-right": "turn_right",
+                "walk-back": "walk_back", "side-step-left": "walk", "side-step-right": "walk", "dash": "run"}
+SOURCES = ("hdm05", "cmu", "bandai")
+# Reference cycles (clip, first frame, last frame), each from the left thigh's maximal extension
+# to the next (left flexion minima, read off the curves): forward walk CMU 07_01 (1.06 s; its
+# mirror is the right-start reference), backward walk Bandai walk-back (active style, 1.17 s).
 REFERENCE_CLIP = "07_01"
 REFERENCE_FRAMES = (134, 261)
-TEST_SUBJECTS = ("mm", "tr", "cmu35", "cmu09")
-QUICK_SUBJECTS = ("cmu07", "cmu09", "bd")
+REFERENCES = {"walk": (REFERENCE_CLIP, *REFERENCE_FRAMES),
+              "walk_back": ("dataset-1_walk-back_active_001", 79, 114)}
+QUICK_SUBJECTS = ("cmu07", "cmu09", "cmu35", "bd", "mm", "bandai1", "bandai2")
 
 
 @dataclass(frozen=True)
 class Body4DConfig:
     subjects: tuple = ()  # empty: every subject with cyclic clips
     clips_per_type: int = 0  # per subject and type; 0 = all
-    threshold: float = 10.0  # DTW distance threshold (degrees, see features.cycles)
+    threshold: float = 12.0  # DTW distance threshold (degrees, see features.cycles)
     n_frames: int = 100
     mirror: bool = False  # add left/right mirrored cycles (flagged) as augmentation
     fit_steps: int = 100
-    test_subjects: tuple = TEST_SUBJECTS
+    sources: tuple = SOURCES
+    test_sources: tuple = splits.TEST_SOURCES
+    test_subjects: tuple = splits.TEST_SUBJECTS
+    takes_share: float = splits.TAKES_SHARE  # Bandai takes held out per content
+    seed: int = 0
 
     def key(self) -> str:
         return json.dumps(dataclasses.asdict(self), sort_keys=True)
@@ -67,8 +87,8 @@ class Body4DConfig:
 
 # ---------------------------------------------------------------------------------- build
 def _catalog_rows(config: Body4DConfig, root: Path) -> pd.DataFrame:
-    cat = build_catalog(root)
-    cat = cat[cat["motion_type"].isin(list(MOTION_TYPES))].copy()
+    cat = build_catalog(root, sources=config.sources)
+    cat = cat[cat["motion_type"].isin(list(MOTION_TYPES)) & cat["source"].isin(config.sources)].copy()
     if config.subjects:
         missing = set(config.subjects) - set(cat["subject"])
         if missing:
@@ -85,34 +105,60 @@ def dataset_hash(config: Body4DConfig, root: Path) -> str:
     import mocapviz.bodies as bodies
     import mocapviz.features.cycles as cycles_mod
 
-    h = hashlib.sha256(f"v{DATASET_VERSION}\n{config.key()}\n{cache_key(root)}\nanny={anny.__version__}\n".encode())
+    h = hashlib.sha256(f"v{DATASET_VERSION}\n{config.key()}\n{cache_key(root, config.sources)}\n"
+                       f"anny={anny.__version__}\n".encode())
     for p in sorted(Path(bodies.__file__).parent.glob("*.py")) + [Path(cycles_mod.__file__), Path(container.__file__),
-                                                                  Path(__file__)]:
+                                                                  Path(splits.__file__), Path(__file__)]:
         h.update(p.read_bytes())
     return h.hexdigest()[:16]
 
 
-def reference_cycles(root: Path | None = None):
-    """The left-start reference (REFERENCE_CLIP, REFERENCE_FRAMES) and its mirror."""
+def load_clip(row, root: Path):
+    """A catalog row as a Motion; Bandai re-based onto a T-pose rest (module docstring)."""
+    motion = load_motion(row)
+    if row["source"] == "bandai":
+        from data_prep.ccnet_dataset import bandai_alignment
+        from mocapviz.features.ccnet_joints import rebase_rest
+
+        motion = rebase_rest(motion, bandai_alignment(root))
+    return motion
+
+
+def reference_cycles(root: Path | None = None) -> list:
+    """The references of :data:`REFERENCES` (each a left-start cycle and its mirror)."""
     from mocapviz.features.cycles import make_references
 
-    cat = build_catalog(root)
-    row = cat[cat["clip"] == REFERENCE_CLIP]
-    if row.empty:
-        raise ValueError(f"reference clip {REFERENCE_CLIP} is not in the catalog of {root}")
-    return make_references(load_motion(row.iloc[0]), *REFERENCE_FRAMES)
+    root = find_data_dir(root)
+    cat = build_catalog(root, sources=SOURCES)
+    out = []
+    for kind, (clip, start, end) in REFERENCES.items():
+        row = cat[cat["clip"] == clip]
+        if row.empty:
+            raise ValueError(f"reference clip {clip} is not in the catalog of {root}")
+        out.append(make_references(load_clip(row.iloc[0], root), start, end, kind))
+    return out
 
 
-def fit_subject_shapes(cat: pd.DataFrame, body, steps: int = 100):
-    """Shape fit of every subject in ``cat`` (skeleton of its first clip)."""
+def heading_offset(motion) -> float:
+    """Median angle (degrees, -180..180) from the pelvis heading to the ground-plane direction of
+    travel: ~0 walking forward, ~180 walking backward, ~+-90 side-stepping."""
+    from mocapviz.heading import rotation_heading
+
+    _, glob = motion.global_pose()
+    v = np.diff(motion.root_positions[:, [0, 2]], axis=0)
+    moving = np.linalg.norm(v, axis=1) * motion.fps > 0.2  # m/s: ignore standing frames
+    travel = np.arctan2(v[moving, 0], v[moving, 1])
+    diff = np.angle(np.exp(1j * (travel - rotation_heading(glob[1:, 0][moving]))))
+    return float(np.degrees(np.median(diff))) if len(diff) else float("nan")
+
+
+def fit_subject_shapes(cat: pd.DataFrame, body, steps: int = 100, root: Path | None = None):
+    """Shape fit of every subject in ``cat`` (skeleton of its first clip), genders held."""
     from mocapviz.bodies.shape_fit import fit_shapes
 
-    skeletons = {s: load_motion(g.iloc[0]).skeleton for s, g in cat.groupby("subject", sort=True)}
-    return fit_shapes(body, skeletons, steps=steps), skeletons
-
-
-def _split_of(subject: str, config: Body4DConfig) -> str:
-    return "test" if subject in config.test_subjects else "train"
+    skeletons = {s: load_clip(g.iloc[0], root).skeleton for s, g in cat.groupby("subject", sort=True)}
+    fixed = {s: {"gender": splits.SUBJECT_GENDER[s]} for s in skeletons if s in splits.SUBJECT_GENDER}
+    return fit_shapes(body, skeletons, steps=steps, fixed=fixed), skeletons
 
 
 def build_dataset(config: Body4DConfig = Body4DConfig(), data_dir=None, cache: bool = True,
@@ -130,65 +176,101 @@ def build_dataset(config: Body4DConfig = Body4DConfig(), data_dir=None, cache: b
     return load_or_build(path, Body4DDataset.load, build, Body4DDataset.save, cache)
 
 
+def _retarget_quietly(motion, target):
+    """Retarget; Bandai's clavicles move and are held static like every source's (the
+    retargeter's warning would repeat for every take)."""
+    from mocapviz.bodies.retarget import rest_alignment, retarget
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*is treated as static")
+        return retarget(motion, target, rest_alignment(motion.skeleton, target))
+
+
 def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:
     from mocapviz.bodies.anny_model import BETA_LABELS, body_model
     from mocapviz.bodies.representation import (DROPPED_JOINTS, PHI_SCALE, canonicalise, chi_joint_indices,
                                                 encode)
-    from mocapviz.bodies.retarget import rest_alignment, retarget, retarget_report
-    from mocapviz.features.cycles import resample_uniform, segment_cycles
+    from mocapviz.bodies.retarget import retarget_report
+    from mocapviz.features.cycles import find_cycles, half_cycles, resample_uniform, travel
 
     t0 = time.perf_counter()
     body = body_model()
     cat = _catalog_rows(config, root)
     refs = reference_cycles(root)
-    fit, skeletons = fit_subject_shapes(cat, body, config.fit_steps)
+    fit, _ = fit_subject_shapes(cat, body, config.fit_steps, root)
     betas = dict(zip(fit.subjects, fit.beta))
     subjects = fit.report()
     subjects["height_m"] = body.measurements(fit.beta)["height"]
-    subjects["source"] = ["hdm05" if not s.startswith("cmu") else "cmu" for s in subjects["subject"]]
-    subjects["split"] = [_split_of(s, config) for s in subjects["subject"]]
-    kept = chi_joint_indices(body.joint_names)
+    source_of = dict(zip(cat["subject"], cat["source"]))
+    subjects["source"] = [source_of[s] for s in subjects["subject"]]
+    subjects["gender_recorded"] = [s in splits.SUBJECT_GENDER for s in subjects["subject"]]
 
+    # drawn from the whole catalog, so a config's subset (quick) does not change which takes test
+    test_takes = splits.held_out_takes(build_catalog(root, sources=config.sources), config.takes_share, config.seed)
+
+    def held_out(source, subject, clip=""):
+        return splits.held_out_set(source, subject, clip, config.test_sources, config.test_subjects, test_takes)
+
+    # a subject is 'test' when none of its cycles trains (Bandai's bodies also have test takes)
+    subjects["split"] = ["test" if held_out(r.source, r.subject) else "train" for r in subjects.itertuples()]
+    kept = chi_joint_indices(body.joint_names)
     targets = {s: body.rest_skeleton(betas[s]) for s in betas}
-    chis, rows, clip_rows = [], [], []
+    chis, rows, rejected, clip_rows = [], [], [], []
     for r in tqdm(list(cat.itertuples(index=False)), desc="body4d clips", disable=not progress):
-        src = load_motion(r._asdict())
-        tgt = targets[r.subject]
+        src = load_clip(r._asdict(), root)
+        test_set = held_out(r.source, r.subject, r.clip)
+        info = dict(subject=r.subject, source=r.source, clip=r.clip, motion_type=r.motion_type,
+                    type=MOTION_TYPES[r.motion_type], style=r.style, split="test" if test_set else "train",
+                    test_set=test_set)
         variants = [(src, False)] + ([(src.mirrored(), True)] if config.mirror else [])
         for motion, mirrored in variants:
-            anny_motion = retarget(motion, tgt, rest_alignment(motion.skeleton, tgt))
+            anny_motion = _retarget_quietly(motion, targets[r.subject])
             if not mirrored:
-                clip_rows.append(dict(retarget_report(motion, anny_motion), subject=r.subject,
-                                      type=MOTION_TYPES[r.motion_type], source=r.source))
-            for cyc in segment_cycles(motion, refs, threshold=config.threshold):
+                clip_rows.append(dict(retarget_report(motion, anny_motion), subject=r.subject, type=info["type"],
+                                      source=r.source, heading_offset_deg=heading_offset(src)))
+            cycles, bad = find_cycles(motion, refs, threshold=config.threshold)
+            for cyc, reason in [(c, "") for c in cycles] + ([] if mirrored else bad):
+                row = dict(info, start=cyc.start, end=cyc.end, side=cyc.side, kind=cyc.kind,
+                           dtw_distance=cyc.distance, correlation=cyc.correlation,
+                           duration_s=cyc.duration(motion.fps), travel_m=travel(motion, cyc), mirrored=mirrored)
+                if reason:
+                    rejected.append(dict(row, reason=reason))
+                    continue
                 rot, rootp, times = resample_uniform(anny_motion, cyc.start, cyc.end, config.n_frames)
                 chis.append(encode(rot, rootp, times, kept, np.ones(3)))
                 _, _, yaw, root0 = canonicalise(rot, rootp)
-                rows.append(dict(subject=r.subject, source=r.source, clip=r.clip, motion_type=r.motion_type,
-                                 type=MOTION_TYPES[r.motion_type], start=cyc.start, end=cyc.end, side=cyc.side,
-                                 dtw_distance=cyc.distance, duration_s=cyc.duration(motion.fps),
-                                 mirrored=mirrored, split=_split_of(r.subject, config), yaw=yaw,
-                                 root0_y=float(root0[1])))
-    chi = np.stack(chis).astype(np.float32) if chis else np.zeros((0, config.n_frames, 6 * len(kept) + 4), np.float32)
+                rows.append(dict(row, yaw=yaw, root0_y=float(root0[1])))
     n_theta = 6 * len(kept)
-    gamma_scale = np.maximum(np.abs(chi[..., n_theta:n_theta + 3]).max(axis=(0, 1)), 1e-6) if len(chi) else np.ones(3)
-    chi[..., n_theta:n_theta + 3] /= gamma_scale
+    chi = np.stack(chis).astype(np.float32) if chis else np.zeros((0, config.n_frames, n_theta + 4), np.float32)
     cycles = pd.DataFrame(rows)
-    beta = np.stack([betas[s] for s in cycles["subject"]]).astype(np.float32) if rows else np.zeros((0, 6), np.float32)
+    # half cycles: a step taken for a stride, judged against the subject's cycles of that type
+    half = half_cycles(cycles["travel_m"], cycles["subject"] + "/" + cycles["type"]) if rows else np.zeros(0, bool)
+    rejected = pd.concat([pd.DataFrame(rejected), cycles[half].drop(columns=["yaw", "root0_y"]).assign(reason="half")],
+                         ignore_index=True)
+    chi, cycles = chi[~half], cycles[~half].reset_index(drop=True)
+    scale = splits.gamma_scale(chi[..., n_theta:n_theta + 3], (cycles["split"] == "train").values) if rows else np.ones(3)
+    chi[..., n_theta:n_theta + 3] /= scale
+    beta = np.stack([betas[s] for s in cycles["subject"]]).astype(np.float32) if len(cycles) else \
+        np.zeros((0, len(BETA_LABELS)), np.float32)
     meta = dict(version=DATASET_VERSION, config=json.loads(config.key()), data_dir=str(root),
                 joint_names=list(body.joint_names), chi_joints=[body.joint_names[k] for k in kept],
                 dropped_joints=list(DROPPED_JOINTS), beta_labels=list(BETA_LABELS),
-                gamma_scale=gamma_scale.tolist(), phi_scale=PHI_SCALE, n_frames=config.n_frames,
+                gamma_scale=scale.tolist(), gamma_scale_from="training cycles (split == 'train'), mirrored included",
+                phi_scale=PHI_SCALE, n_frames=config.n_frames,
                 chi_layout=f"[Theta {n_theta} = {len(kept)} joints x 6D minus identity, Gamma 3, Phi 1]",
                 reference=dict(clip=REFERENCE_CLIP, frames=list(REFERENCE_FRAMES)),
-                test_subjects=list(config.test_subjects),
+                references={k: list(v) for k, v in REFERENCES.items()},
+                test_sources=list(config.test_sources), test_subjects=list(config.test_subjects),
+                test_takes=sorted(test_takes),
                 build_seconds=round(time.perf_counter() - t0, 1))
-    return Body4DDataset(chi, beta, cycles, subjects, pd.DataFrame(clip_rows), meta)
+    return Body4DDataset(chi, beta, cycles, subjects, pd.DataFrame(clip_rows), meta, rejected)
 
 
 def summary(ds: Body4DDataset) -> str:
     clips = ds.clips
-    return (f"{len(ds)} cycles ({(ds.cycles['split'] == 'test').sum()} test) from {len(clips)} clips of "
+    real = ds.cycles[~ds.cycles["mirrored"]]
+    return (f"{len(real)} cycles ({(real['split'] == 'test').sum()} test; {len(ds) - len(real)} mirrored copies; "
+            f"{int((~ds.rejected['mirrored']).sum()) if len(ds.rejected) else 0} rejected) from {len(clips)} clips of "
             f"{len(ds.subjects)} subjects; shape fit {ds.subjects.err_before_cm.mean():.2f} -> "
             f"{ds.subjects.err_after_cm.mean():.2f} cm; retarget joint error {clips.joint_err_cm.mean():.2f} cm; "
             f"foot sliding {clips.slide_source_cm_s.mean():.1f} (source) vs {clips.slide_anny_cm_s.mean():.1f} "
@@ -228,6 +310,10 @@ def main(argv=None) -> int:
         print(ds.clips.groupby(["source", "type"])[cols].mean().round(2).to_string())
         print("\ncycles per motion type and subject (without mirrored copies):")
         print(ds.counts().to_string())
+        print("\ncycles per source and type, by split:")
+        print(ds.counts(["source", "type"], "split").to_string())
+        print("\nrejected segments per reason and type:")
+        print(ds.counts("reason", "type", table="rejected").to_string())
     print(summary(ds))
     return 0
 

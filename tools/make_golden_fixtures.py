@@ -71,7 +71,7 @@ FIXTURES = {
                                                    "in_clips": np.array(["07_01", "HDM_bd_sneak2StepsLStart_001_120"]),
                                                    "in_steps": 100}),
     # the reference left-start walk cycle of notebook 10 on subject 07's fitted body; a fixed
-    # Gamma scale (the dataset's is a statistic over all its cycles)
+    # Gamma scale (the dataset's is a statistic over its training cycles)
     "chi_07_01": (chi_cycle, lambda data_dir: {
         "in_clip": "07_01", "in_frames": np.array([134, 261]), "in_gamma_scale": np.array([0.5, 0.2, 2.0]),
         "in_beta": fitted_betas(FIXTURES["beta_07_bd"][1](data_dir), data_dir)["beta"][0]}),

@@ -6,7 +6,8 @@ Per cycle: ``N_FRAMES`` = 100 time-stamped frames (uniform resampling of the cyc
   the continuous 6-D form (first two matrix columns), with the identity's
   [1, 0, 0, 0, 1, 0] subtracted (centred, not z-scored, as in the paper);
 - Gamma: the root (Hips head) translation with the first frame at 0, divided per axis by
-  the dataset's ``gamma_scale`` (max absolute value over all cycles) so it lies in [-1, 1];
+  the dataset's ``gamma_scale`` (max absolute value over the training cycles) so training
+  cycles lie in [-1, 1];
 - Phi: the time since the cycle's first frame divided by ``PHI_SCALE`` = 3 s (the longest
   cycle kept), so it lies in [0, 1] and still tells a 0.6 s run from a 1.2 s walk.
 

@@ -95,7 +95,10 @@ def rest_alignment(source: Skeleton, target: Skeleton, static=STATIC_JOINTS) -> 
             Q[j] = parent_q
             continue
         s = source.index(name)
-        pts = [(n, e) for n, e in _targets(source, s) if n in target.names]
+        # an end site counts only where the target has one too (4 Bandai takes carry end sites on
+        # joints, e.g. the hands, that are not leaves of anny's rig)
+        target_ends = {target.names[jj] for jj, _ in target.end_sites}
+        pts = [(n, e) for n, e in _targets(source, s) if n in target.names and (not e or n in target_ends)]
         a = [_point(target, rt, n, e) - rt[j] for n, e in pts]
         b = [_point(source, rs, n, e) - rs[s] for n, e in pts]
         keep = [i for i in range(len(pts)) if np.linalg.norm(a[i]) > _EPS]

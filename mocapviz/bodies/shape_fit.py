@@ -12,6 +12,15 @@ Optimisation: Adam on an unconstrained parameter mapped by a sigmoid into the bo
 :data:`~mocapviz.bodies.anny_model.BETA_BOUNDS`, all subjects in one batch, plus a weak
 quadratic pull towards the neutral adult for the phenotypes that bone lengths hardly see
 (muscle and weight change girth, not length).
+
+The shape prior (what bone lengths cannot tell). Gender is not identifiable from segment
+lengths: fitted freely it ran to a bound (every body female, although the five HDM05 actors are
+men). So gender is never fitted: a subject's recorded gender is passed in ``fixed`` (0 = male,
+1 = female; see ``data_prep.body4d_dataset.SUBJECT_GENDER``), and an unrecorded one stays at
+anny's midpoint 0.5 (neither look, said as such). Age is barely identifiable either (anny's
+adult age changes proportions by millimetres) and ran to a bound of its adult window; a
+quadratic pull (:data:`PRIOR_WEIGHTS`) towards the neutral adult's 0.8 (~41 y) keeps it where
+the bone lengths do not argue for another value.
 """
 
 from __future__ import annotations
@@ -41,7 +50,7 @@ SEGMENTS = {
     "shoulder_width": (("LeftArm",), ("RightArm",)),
     "trunk": (("LeftUpLeg", "RightUpLeg"), ("LeftArm", "RightArm")),
 }
-PRIOR_WEIGHTS = {"gender": 3e-4, "age": 0.0, "muscle": 1e-4, "weight": 1e-4, "height": 0.0,
+PRIOR_WEIGHTS = {"gender": 0.0, "age": 3e-2, "muscle": 1e-4, "weight": 1e-4, "height": 0.0,
                  "proportions": 1e-4}
 
 
@@ -101,28 +110,39 @@ class ShapeFit:
 
 
 def fit_shapes(body: BodyModel, skeletons: dict, steps: int = 100, lr: float = 0.1,
-               init=NEUTRAL_BETA) -> ShapeFit:
+               init=NEUTRAL_BETA, fixed: dict | None = None) -> ShapeFit:
     """Fit one beta per subject (``skeletons``: subject -> Skeleton), all in one batch.
 
     Gradient-based (Adam) on the mean squared segment-length error in metres, with betas
     kept inside BETA_BOUNDS by a sigmoid. Starts from ``init`` (the neutral adult), which
-    is also what the "before" error measures.
+    is also what the "before" error measures. ``fixed`` (subject -> {label: value}) holds
+    phenotypes that are known, not fitted; gender is never fitted (module docstring): a
+    subject without a recorded gender keeps ``init``'s (0.5).
     """
     subjects = list(skeletons)
+    fixed = fixed or {}
     target = torch.tensor(np.stack([segment_lengths(skeletons[s]) for s in subjects]), dtype=torch.float32)
     lo = torch.tensor([BETA_BOUNDS[k][0] for k in BETA_LABELS], dtype=torch.float32)
     hi = torch.tensor([BETA_BOUNDS[k][1] for k in BETA_LABELS], dtype=torch.float32)
     init = torch.as_tensor(np.asarray(init, dtype=np.float32)).expand(len(subjects), -1).clone()
     init = torch.minimum(torch.maximum(init, lo + 1e-3), hi - 1e-3)
+    # phenotypes held at a value (``keep``): gender always, anything ``fixed`` names
+    keep = torch.zeros(init.shape, dtype=torch.bool)
+    keep[:, BETA_LABELS.index("gender")] = True
+    value = init.clone()
+    for i, s in enumerate(subjects):
+        for k, v in fixed.get(s, {}).items():
+            keep[i, BETA_LABELS.index(k)] = True
+            value[i, BETA_LABELS.index(k)] = float(v)
     prior = torch.tensor([PRIOR_WEIGHTS[k] for k in BETA_LABELS], dtype=torch.float32)
     x = torch.logit((init - lo) / (hi - lo)).requires_grad_(True)
     opt = torch.optim.Adam([x], lr=lr)
 
     def beta_of(x):
-        return lo + (hi - lo) * torch.sigmoid(x)
+        return torch.where(keep, value, lo + (hi - lo) * torch.sigmoid(x))
 
     with torch.no_grad():
-        before = (_anny_segment_lengths(body, beta_of(x)) - target).numpy()
+        before = (_anny_segment_lengths(body, init) - target).numpy()
     for _ in range(steps):
         opt.zero_grad()
         beta = beta_of(x)
