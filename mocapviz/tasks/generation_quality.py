@@ -81,7 +81,7 @@ def real_reference(ds, motion_type: str) -> tuple[float, float]:
 SEED_FRAMES = 48
 
 
-def pose_bank(ds, every: int = 4) -> metrics.PoseBank:
+def pose_bank(ds, every: int = 8) -> metrics.PoseBank:
     """The training clips' poses (every ``every``-th frame) as a :class:`~mocapviz.metrics.PoseBank`."""
     poses = []
     for i in np.flatnonzero((ds.clips.split == "train").values):
@@ -90,15 +90,18 @@ def pose_bank(ds, every: int = 4) -> metrics.PoseBank:
     return metrics.PoseBank(np.concatenate(poses))
 
 
-def pose_distance(motion, bank: metrics.PoseBank) -> float:
-    """Median over frames of ``motion``'s distance to the nearest bank pose (root heights)."""
+def pose_distance(motion, bank: metrics.PoseBank, every: int = 4) -> float:
+    """Median over every ``every``-th frame of ``motion``'s distance to the nearest bank pose
+    (root heights)."""
+    motion = motion[::every]
     local = metrics.local_positions(motion.positions(), motion.skeleton)
     return float(np.median(bank.distance(local, motion.skeleton.configuration()[0])))
 
 
-def real_pose_distance(ds, bank: metrics.PoseBank, motion_type: str) -> float:
-    """Mean :func:`pose_distance` of the held-out (validation and test) clips of ``motion_type``."""
-    rows = np.flatnonzero(((ds.clips.type == motion_type) & (ds.clips.split != "train")).values)
+def real_pose_distance(ds, bank: metrics.PoseBank, motion_type: str, n_clips: int = 20) -> float:
+    """Mean :func:`pose_distance` of the held-out (validation and test) clips of ``motion_type``
+    (the first ``n_clips`` in dataset order)."""
+    rows = np.flatnonzero(((ds.clips.type == motion_type) & (ds.clips.split != "train")).values)[:n_clips]
     return float(np.mean([pose_distance(ds.clip_motion(int(i)), bank) for i in rows]))
 
 
