@@ -77,7 +77,7 @@ def srnn_starts(n_frames_1: int, n_frames_2: int, seed: int = SRNN_SEED, prefix:
 
 
 @dataclass
-class TestSequence:
+class SeedSequence:
     """One test sequence: rows of the whole 25 fps take and where the seed starts in it."""
 
     action: str
@@ -100,14 +100,14 @@ def read_take(path: str | Path) -> np.ndarray:
     return parse_number_lines(read_text(path), 99, 1, path, sep=",")
 
 
-def test_sequences(data_dir: str | Path, action: str, subject: int = TEST_SUBJECT) -> list[TestSequence]:
+def srnn_sequences(data_dir: str | Path, action: str, subject: int = TEST_SUBJECT) -> list[SeedSequence]:
     """The 8 seeded test sequences of ``action`` for ``subject`` from ``<data_dir>/S<k>/``
     (FileNotFoundError when a subaction file is missing, e.g. S5 discussion)."""
     takes = [read_take(Path(data_dir) / f"S{subject}" / f"{action}_{k}.txt") for k in (1, 2)]
     motions = [h36m_motion(v, root="integrated", every=2, name=f"S{subject}_{action}_{k}")
                for k, v in enumerate(takes, 1)]
     starts = srnn_starts(*(m.n_frames for m in motions))
-    return [TestSequence(action, sub, start, motions[sub - 1].meta["expmap"], motions[sub - 1])
+    return [SeedSequence(action, sub, start, motions[sub - 1].meta["expmap"], motions[sub - 1])
             for sub, start in starts]
 
 
@@ -145,15 +145,15 @@ def at_horizons(errors: np.ndarray, horizons_ms=HORIZONS_MS) -> dict[int, float]
     return {ms: float(errors[int(round(ms * FPS / 1000)) - 1]) for ms in horizons_ms}
 
 
-def zero_velocity(sequences: list[TestSequence], n_pred: int) -> np.ndarray:
+def zero_velocity(sequences: list[SeedSequence], n_pred: int) -> np.ndarray:
     """The zero-velocity baseline (Martinez et al.): the last seed row repeated, (N, n_pred, 99)."""
     return np.stack([np.repeat(s.seed()[-1:], n_pred, axis=0) for s in sequences])
 
 
-Predictor = Callable[[list[TestSequence], int], np.ndarray]   # sequences, n_pred -> (N, n_pred, 99)
+Predictor = Callable[[list[SeedSequence], int], np.ndarray]   # sequences, n_pred -> (N, n_pred, 99)
 
 
-def evaluate(predictors: dict[str, Predictor], sequences: dict[str, list[TestSequence]],
+def evaluate(predictors: dict[str, Predictor], sequences: dict[str, list[SeedSequence]],
              n_pred: int = 25, horizons_ms=HORIZONS_MS) -> pd.DataFrame:
     """Long table (action, ms, model, mae) of every predictor on every action's sequences."""
     rows = []
