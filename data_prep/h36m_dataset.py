@@ -128,12 +128,14 @@ def _build(root: Path, path: Path) -> CCNetDataset:
                         np.stack(offsets), m.skeleton.parents, meta)
 
 
-def train_config(steps: int = 2000, size: str = "quick"):
+def train_config(steps: int = 2000, size: str = "quick", residual: bool = False):
     """The ``quick`` training config (batch 16, 60-frame windows, Adam 1e-3 decaying to 1e-5, one
     thread) with ``steps`` steps and a CCNet of ``size`` (quick: 20 SRBs, d = 2, CRL 41 frames =
-    1.6 s at 25 fps, C = 32); ``steps`` sets the CPU budget."""
+    1.6 s at 25 fps, C = 32); ``steps`` sets the CPU budget. ``residual``: the network predicts
+    x_{t+1} - x_t (:class:`mocapviz.models.ccnet_config.CCNetConfig`; not the paper's network)."""
     from mocapviz.training.config import TRAIN_CONFIGS
-    return replace(TRAIN_CONFIGS["quick"], size=size, steps=steps, eval_every=250, checkpoint_every=250)
+    return replace(TRAIN_CONFIGS["quick"], size=size, steps=steps, residual=residual, eval_every=250,
+                   checkpoint_every=250)
 
 
 def ccnet_predictor(model, normaliser):
@@ -157,10 +159,10 @@ def ccnet_predictor(model, normaliser):
     return predict
 
 
-def prediction_table(model=None, normaliser=None, data_dir=None) -> pd.DataFrame:
-    """Table 6 rows (action, ms, model, mae): zero-velocity and (given a model) CCNet on every
-    action whose S5 files exist, the paper's rows beside them, and ``not available`` rows (mae
-    NaN) for actions whose test files are missing."""
+def prediction_table(models: dict | None = None, data_dir=None) -> pd.DataFrame:
+    """Table 6 rows (action, ms, model, mae, note): zero-velocity and each CCNet of ``models``
+    (name -> (model, normaliser)) on every action whose S5 files exist, the paper's rows beside
+    them, and ``not available`` rows (mae NaN) for actions whose test files are missing."""
     root = find_data_dir(data_dir, "h36m") / "h36m"
     seqs, missing = {}, []
     for action in protocol.ACTIONS:
@@ -169,8 +171,7 @@ def prediction_table(model=None, normaliser=None, data_dir=None) -> pd.DataFrame
         except FileNotFoundError:
             missing.append(action)
     predictors = {"zero_velocity": protocol.zero_velocity}
-    if model is not None:
-        predictors["ccnet_ours"] = ccnet_predictor(model, normaliser)
+    predictors.update({name: ccnet_predictor(*m) for name, m in (models or {}).items()})
     ours = protocol.evaluate(predictors, seqs)
     gaps = pd.DataFrame([dict(action=a, ms=ms, model=m, mae=np.nan, note=f"not available: no S{protocol.TEST_SUBJECT} "
                               f"{a} files in this copy of the data")
@@ -185,9 +186,11 @@ def main(argv=None) -> int:
     p.add_argument("--data-dir")
     p.add_argument("--steps", type=int, default=2000, help="train: optimiser steps")
     p.add_argument("--size", default="quick", help="train: CCNet size (quick, default, paper)")
+    p.add_argument("--residual", action="store_true", help="train: residual output (x_t + change)")
     p.add_argument("--out", help="train: run folder; table: CSV path")
     p.add_argument("--export", help="train: write the best-by-validation model here")
-    p.add_argument("--model", help="table: a CCNet checkpoint (default: zero-velocity only)")
+    p.add_argument("--model", action="append", default=[],
+                   help="table: a CCNet checkpoint (repeatable; named by its file stem)")
     a = p.parse_args(argv)
     t = time.perf_counter()
     if a.command == "build":
@@ -198,18 +201,16 @@ def main(argv=None) -> int:
     elif a.command == "train":
         from mocapviz.training.runs import export_model
         from mocapviz.training.trainer import train
-        train(build_dataset(a.data_dir), train_config(a.steps, a.size), a.out or "cache/runs/ccnet_h36m")
+        train(build_dataset(a.data_dir), train_config(a.steps, a.size, a.residual), a.out or "cache/runs/ccnet_h36m")
         if a.export:
             print(f"exported {export_model(Path(a.out or 'cache/runs/ccnet_h36m'), a.export)}")
     else:
-        model = norm = None
-        if a.model:
-            from mocapviz.training.checkpoint import load_checkpoint
-            model, norm, _ = load_checkpoint(a.model)
-        table = prediction_table(model, norm, a.data_dir)
+        from mocapviz.training.checkpoint import load_checkpoint
+        models = {Path(f).stem: load_checkpoint(f)[:2] for f in a.model}
+        table = prediction_table(models, a.data_dir)
         if a.out:
             table.to_csv(a.out, index=False, float_format="%.4f")
-        print(table[table.model.isin(["zero_velocity", "ccnet_ours", "paper_ccnet"])]
+        print(table[table.model.isin(["zero_velocity", "paper_ccnet", *models])]
               .pivot_table(index=["action", "model"], columns="ms", values="mae").round(3).to_string())
         print(f"{time.perf_counter() - t:.1f} s")
     return 0

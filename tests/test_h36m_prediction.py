@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -125,3 +127,21 @@ def test_missing_s5_discussion_says_so(data_dir):
         pytest.skip("this copy of the data has S5 discussion")
     with pytest.raises(FileNotFoundError):
         hp.srnn_sequences(data_dir / "h36m", "discussion")
+
+
+def test_committed_table_is_what_the_code_gives(data_dir):
+    """results/ccnet_table6_h36m.csv against a fresh evaluation of the committed checkpoints."""
+    import pandas as pd
+
+    from data_prep.h36m_dataset import prediction_table
+    from mocapviz.training.checkpoint import load_checkpoint
+    from mocapviz.zoo import find_checkpoint
+    repo = Path(__file__).resolve().parent.parent
+    names = ("ccnet_h36m", "ccnet_h36m_residual")
+    fresh = prediction_table({n: load_checkpoint(find_checkpoint(n, cwd=repo))[:2] for n in names}, data_dir)
+    committed = pd.read_csv(repo / "results" / "ccnet_table6_h36m.csv")
+    assert len(committed) == len(fresh) == 4 * 5 * 5 + 4 * 5 * 3   # paper rows + ours (discussion NaN)
+    merged = fresh.merge(committed, on=["action", "ms", "model"], suffixes=("", "_csv"))
+    assert len(merged) == len(fresh)
+    np.testing.assert_allclose(merged.mae, merged.mae_csv, atol=1e-4)   # the CSV keeps 4 decimals
+    assert merged[merged.action == "discussion"].query("not model.str.startswith('paper')").mae.isna().all()
