@@ -22,9 +22,10 @@ subaction 2, the protocol giving no validation set and S5 being the test subject
 :mod:`mocapviz.tasks.h36m_prediction`). S5 discussion and S7/S9 discussion and smoking are
 missing, and S8 smoking was removed (a copy of S5's); see the data README.
 
-Training (:data:`TRAIN_CONFIG`) is the ``quick`` CCNet on one thread; evaluation predicts with
-:class:`mocapviz.tasks.generate.Generator` from the seed's features (c^d of the seed from its own
-root path, extrapolated past its end, then the network's own predicted c^d: no future leaks in).
+Training (:func:`train_config`) is the ``quick`` CCNet on one thread; evaluation
+(:func:`mocapviz.tasks.h36m_prediction.ccnet_predictor`) predicts with the generator from the
+seed's features (c^d of the seed from its own root path, extrapolated past its end, then the
+network's own predicted c^d: no future leaks in).
 """
 
 from __future__ import annotations
@@ -120,8 +121,8 @@ def _build(root: Path, path: Path) -> CCNetDataset:
                 build_seconds=round(time.perf_counter() - t0, 2), test_subject=CONFIG.test_subject,
                 test_clips=clips[clips.split == "test"]["clip"].tolist(), val_subject=CONFIG.val_subject,
                 val_clips=clips[clips.split == "val"]["clip"].tolist(),
-                n_train_clips=int((clips.split == "train").sum()), n_frames=int(len(x)),
-                n_train_frames=int(len(train_rows)),
+                n_train_clips=int((clips.split == "train").sum()), n_frames=len(x),
+                n_train_frames=len(train_rows),
                 train_mean_joint_speed=float(feat.joint_speed(x[train_rows], layout).mean()),
                 motion_types=list(protocol.ACTIONS), joint_names=list(H36M_NAMES))
     return CCNetDataset(x, traj, skel, clips, normaliser, CONFIG, tuple(H36M_NAMES),
@@ -138,27 +139,6 @@ def train_config(steps: int = 2000, size: str = "quick", residual: bool = False)
                    checkpoint_every=250)
 
 
-def ccnet_predictor(model, normaliser):
-    """A protocol predictor (sequences, n_pred) -> (N, n_pred, 99) exp-map rows from CCNet: the
-    features of the 50 seed frames (49 frame vectors) are fed, then the mean of each predicted
-    Gaussian is fed back; joint rotations come from the rotation block (root rows left 0)."""
-    from mocapviz.features.motion_types import one_hot
-    from mocapviz.tasks.generate import Generator
-
-    def predict(seqs, n_pred):
-        feats = [feat.motion_features(s.motion[s.start:s.start + protocol.N_SEED], protocol.FPS) for s in seqs]
-        types = one_hot([protocol.ACTIONS.index(s.action) for s in seqs], model.cfg.n_types)
-        gen = Generator(model, normaliser, batch=len(seqs))
-        out = gen.run(np.stack([f.x for f in feats]), np.stack([f.skel for f in feats]), types, n_pred,
-                      seed_traj=np.stack([f.traj for f in feats]))
-        layout = feat.FeatureLayout(len(H36M_NAMES), model.cfg.n_types)
-        rotvec = out.x[:, out.n_seed:, layout.x_blocks["rot"]]
-        rows = np.zeros(rotvec.shape[:2] + (99,))
-        rows[..., 3:] = -rotvec          # our rotation exp(v) is the file's exp-map -v
-        return rows
-    return predict
-
-
 def prediction_table(models: dict | None = None, data_dir=None) -> pd.DataFrame:
     """Table 6 rows (action, ms, model, mae, note): zero-velocity and each CCNet of ``models``
     (name -> (model, normaliser)) on every action whose S5 files exist, the paper's rows beside
@@ -171,7 +151,7 @@ def prediction_table(models: dict | None = None, data_dir=None) -> pd.DataFrame:
         except FileNotFoundError:
             missing.append(action)
     predictors = {"zero_velocity": protocol.zero_velocity}
-    predictors.update({name: ccnet_predictor(*m) for name, m in (models or {}).items()})
+    predictors.update({name: protocol.ccnet_predictor(*m) for name, m in (models or {}).items()})
     ours = protocol.evaluate(predictors, seqs)
     gaps = pd.DataFrame([dict(action=a, ms=ms, model=m, mae=np.nan, note=f"not available: no S{protocol.TEST_SUBJECT} "
                               f"{a} files in this copy of the data")

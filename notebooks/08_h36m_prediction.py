@@ -163,7 +163,7 @@ for name in MODEL_NAMES:
 # %%
 t0 = time.perf_counter()
 predictors = {"zero_velocity": hp.zero_velocity,
-              **{name: h36m_dataset.ccnet_predictor(*m) for name, m in models.items()}}
+              **{name: hp.ccnet_predictor(*m) for name, m in models.items()}}
 ours = hp.evaluate(predictors, sequences)
 print(f"evaluated in {time.perf_counter() - t0:.1f} s")
 table = pd.concat([ours, hp.paper_rows()])

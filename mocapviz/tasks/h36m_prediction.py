@@ -19,21 +19,27 @@ scores a prediction that does not move as 0; their ``baselines.py`` picks them b
 truth's. We use the ground truth's for every model, so a frozen prediction is not rewarded.
 The gimbal-lock branch of ``rotmat2euler`` (|R02| exactly 1) is not reproduced: it has measure
 zero on real data.
+
+Predictors map (sequences, n_pred) to exp-map rows (N, n_pred, 99): :func:`zero_velocity`, and
+:func:`ccnet_predictor` for a CCNet trained on the H3.6M features (``data_prep/h36m_dataset.py``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pandas as pd
 
-from mocapviz.io.h36m import h36m_motion
+from mocapviz.features.ccnet import FeatureLayout, motion_features
+from mocapviz.features.motion_types import one_hot
 from mocapviz.io._text import parse_number_lines, read_text
+from mocapviz.io.h36m import H36M_NAMES, h36m_motion
 from mocapviz.motion import Motion
 from mocapviz.rotations import rotvec_to_matrix
+from mocapviz.tasks.generate import Generator
 
 ACTIONS = ("walking", "eating", "smoking", "discussion")   # Table 6's four actions
 TRAIN_SUBJECTS = (1, 6, 7, 8, 9, 11)
@@ -170,3 +176,21 @@ def paper_rows(actions=ACTIONS) -> pd.DataFrame:
     return pd.DataFrame([dict(action=a, ms=ms, model=f"paper_{m.lower().replace('-', '_')}", mae=v)
                          for a in actions for m, vals in PAPER_TABLE6[a].items()
                          for ms, v in zip(HORIZONS_MS, vals)])
+
+
+def ccnet_predictor(model, normaliser):
+    """A protocol predictor (sequences, n_pred) -> (N, n_pred, 99) exp-map rows from CCNet: the
+    features of the 50 seed frames (49 frame vectors) are fed, then the mean of each predicted
+    Gaussian is fed back; joint rotations come from the rotation block (root rows left 0)."""
+    def predict(seqs, n_pred):
+        feats = [motion_features(s.motion[s.start:s.start + N_SEED], FPS) for s in seqs]
+        types = one_hot([ACTIONS.index(s.action) for s in seqs], model.cfg.n_types)
+        gen = Generator(model, normaliser, batch=len(seqs))
+        out = gen.run(np.stack([f.x for f in feats]), np.stack([f.skel for f in feats]), types, n_pred,
+                      seed_traj=np.stack([f.traj for f in feats]))
+        layout = FeatureLayout(len(H36M_NAMES), model.cfg.n_types)
+        rotvec = out.x[:, out.n_seed:, layout.x_blocks["rot"]]
+        rows = np.zeros(rotvec.shape[:2] + (99,))
+        rows[..., 3:] = -rotvec          # our rotation exp(v) is the file's exp-map -v
+        return rows
+    return predict
