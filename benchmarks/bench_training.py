@@ -4,7 +4,8 @@
 
 One epoch (every training frame once: the training clips cut into non-overlapping windows, in
 one seeded order) of CCNet and of ERD-4LR, in one run, on the same batches with the same input
-noise: Adam steps of the training loss, this CPU, ``--threads`` threads. ERD-4LR's width
+noise: Adam steps of the training loss, this CPU, ``--threads`` threads. The two models' steps
+alternate batch by batch, so that a shared machine's changing load falls on both alike. ERD-4LR's width
 (encoder = LSTM = decoder units) is the one whose parameter count is closest to CCNet's.
 Prints each model's seconds per epoch, frames per second and parameter count, and the ratio;
 the last line is a JSON object.
@@ -43,19 +44,24 @@ def erd_of_size(n_params: int, layout):
     return cls(replace(base, encoder=w, hidden=w, decoder=w))
 
 
-def one_epoch(model, batches, lambdas, noise_std: float) -> float:
-    """Seconds for Adam steps over ``batches`` (dicts of WindowData.batch)."""
-    opt = torch.optim.Adam(model.parameters(), lr=1e-4)
-    loss_fn = LOSSES[model.name]
-    model.train()
-    t = time.perf_counter()
-    for b, noise in batches:
-        out = model(**{k: (b[k] + noise_std * noise if k == "x" else b[k]) for k in model.input_names})
-        loss = loss_fn(out, b, model.cfg, lambdas)["loss"]
-        opt.zero_grad(set_to_none=True)
+class Timed:
+    """A model, its Adam optimiser and the seconds its training steps took."""
+
+    def __init__(self, model, lambdas, noise_std: float):
+        self.model, self.lambdas, self.noise_std = model.train(), lambdas, noise_std
+        self.opt = torch.optim.Adam(model.parameters(), lr=1e-4)
+        self.loss_fn = LOSSES[model.name]
+        self.seconds = 0.0
+
+    def step(self, b: dict, noise: torch.Tensor) -> None:
+        t = time.perf_counter()
+        m = self.model
+        out = m(**{k: (b[k] + self.noise_std * noise if k == "x" else b[k]) for k in m.input_names})
+        loss = self.loss_fn(out, b, m.cfg, self.lambdas)["loss"]
+        self.opt.zero_grad(set_to_none=True)
         loss.backward()
-        opt.step()
-    return time.perf_counter() - t
+        self.opt.step()
+        self.seconds += time.perf_counter() - t
 
 
 def main(argv=None) -> dict:
@@ -86,14 +92,20 @@ def main(argv=None) -> dict:
     erd = erd_of_size(count_parameters(ccnet), data.layout)
     res = dict(dataset=a.dataset, windows=sum(len(b["x"]) for b, _ in batches), frames=frames,
                batch=a.batch, window=a.window, threads=a.threads, ccnet_size=a.size, erd_width=erd.cfg.hidden)
-    for name, model in (("ccnet", ccnet), ("erd", erd)):
-        one_epoch(model, batches[:2], cfg.lambdas, cfg.noise_std)     # warm-up
-        sec = one_epoch(model, batches, cfg.lambdas, cfg.noise_std)
-        res[f"{name}_params"] = count_parameters(model)
-        res[f"{name}_epoch_s"] = round(sec, 2)
-        res[f"{name}_frames_per_s"] = round(frames / sec, 1)
-        print(f"{name:6s} {count_parameters(model):8d} parameters: one epoch ({len(batches)} batches, {frames} frames) "
-              f"in {sec:.1f} s, {frames / sec:.0f} frames/s")
+    timed = {name: Timed(m, cfg.lambdas, cfg.noise_std) for name, m in (("ccnet", ccnet), ("erd", erd))}
+    for t in timed.values():          # warm-up, not timed
+        for b, noise in batches[:2]:
+            t.step(b, noise)
+        t.seconds = 0.0
+    for b, noise in batches:          # interleaved, so that both see the same load on a shared machine
+        for t in timed.values():
+            t.step(b, noise)
+    for name, t in timed.items():
+        res[f"{name}_params"] = count_parameters(t.model)
+        res[f"{name}_epoch_s"] = round(t.seconds, 2)
+        res[f"{name}_frames_per_s"] = round(frames / t.seconds, 1)
+        print(f"{name:6s} {count_parameters(t.model):8d} parameters: one epoch ({len(batches)} batches, {frames} frames) "
+              f"in {t.seconds:.1f} s, {frames / t.seconds:.0f} frames/s")
     res["erd_over_ccnet"] = round(res["erd_epoch_s"] / res["ccnet_epoch_s"], 2)
     print(f"CCNet is {res['erd_over_ccnet']:.2f}x faster per epoch than ERD-4LR (paper's claim: >= 5x)")
     print(json.dumps(res))
