@@ -9,7 +9,13 @@ import torch
 
 from mocapviz.models.dae_lstm import DAELSTM, DAELSTMConfig
 from mocapviz.models.erd import ERD, ERDConfig
-from mocapviz.models.pfnn import PFNN, PFNNConfig, PhaseLinear, catmull_rom_coefficients, track_phase
+from mocapviz.models.pfnn import (
+    PFNN,
+    PFNNConfig,
+    PhaseLinear,
+    catmull_rom_coefficients,
+    track_phase,
+)
 from mocapviz.models.protocol import build_model, model_class
 
 SMALL = dict(n_x=30, n_skel=7, n_traj=12, n_types=3)

@@ -5,8 +5,16 @@ import numpy as np
 import pytest
 
 from mocapviz.features.motion_types import MOTION_TYPES, one_hot
-from mocapviz.tasks.control import (BLEND_FRAMES, SPEED_STEP, ControlSession, KeyEvent, hold, path_speed,
-                                    plan_controls, steer)
+from mocapviz.tasks.control import (
+    BLEND_FRAMES,
+    SPEED_STEP,
+    ControlSession,
+    KeyEvent,
+    hold,
+    path_speed,
+    plan_controls,
+    steer,
+)
 
 WALK, JOG = MOTION_TYPES.index("walk"), MOTION_TYPES.index("jog")
 N_TYPES = len(MOTION_TYPES)

@@ -114,7 +114,9 @@ class ControlSession:
     label. Each :meth:`step` makes one frame."""
 
     def __init__(self, model, normaliser, seed_x, seed_traj, skel, types, sample: bool = False, seed: int = 0):
-        from mocapviz.tasks.generate import Generator   # the frame writing (mean or sample, contacts)
+        from mocapviz.tasks.generate import (
+            Generator,  # the frame writing (mean or sample, contacts)
+        )
         self.gen = Generator(model, normaliser, batch=1, sample=sample, seed=seed, backend="numpy")
         self.norm = normaliser
         self.skel_n = normaliser.norm_skel(np.asarray(skel, np.float32)[None])

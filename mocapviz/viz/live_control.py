@@ -19,7 +19,14 @@ import numpy as np
 from mocapviz.features.ccnet import FPS, features_to_motion
 from mocapviz.heading import from_heading_frame_xz
 from mocapviz.io.bvh import write_bvh
-from mocapviz.tasks.control import KEY_TYPES, ControlSession, KeyEvent, hold, path_speed, plan_controls
+from mocapviz.tasks.control import (
+    KEY_TYPES,
+    ControlSession,
+    KeyEvent,
+    hold,
+    path_speed,
+    plan_controls,
+)
 from mocapviz.viz import geometry as geo
 from mocapviz.viz import scene
 
