@@ -17,6 +17,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", default="quick", help="named training config: quick, default or paper "
                    "(mocapviz.training.config.TRAIN_CONFIGS)")
     p.add_argument("--out", required=True, help="run folder (resumed if it holds a checkpoint)")
+    p.add_argument("--model", help="registered model to train instead of the config's (ccnet, erd, dae_lstm, pfnn)")
     p.add_argument("--steps", type=int)
     p.add_argument("--batch-size", type=int)
     p.add_argument("--eval-every", type=int)
@@ -40,7 +41,7 @@ def run(a: argparse.Namespace) -> int:
     if a.config not in TRAIN_CONFIGS:
         raise KeyError(f"unknown training config {a.config!r}; choose from {', '.join(TRAIN_CONFIGS)}")
     cfg = TRAIN_CONFIGS[a.config]
-    for name in ("steps", "batch_size", "eval_every"):
+    for name in ("model", "steps", "batch_size", "eval_every"):
         if getattr(a, name):
             cfg = replace(cfg, **{name: getattr(a, name)})
     if a.eval_every:

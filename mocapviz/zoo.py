@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+from dataclasses import replace
 from pathlib import Path
 
 from mocapviz.training.checkpoint import load_checkpoint
@@ -20,7 +21,11 @@ from mocapviz.training.config import TRAIN_CONFIGS
 from mocapviz.training.runs import export_model
 from mocapviz.training.trainer import train
 
-MODELS = {f"ccnet_{k}": k for k in TRAIN_CONFIGS}
+MODELS = {f"ccnet_{k}": cfg for k, cfg in TRAIN_CONFIGS.items()}  # name -> the training config that makes it
+# the CCNet baselines of paper §4.1.2 (mocapviz.models.baseline), each trained as its committed file was
+# (pfnn: 600 steps, what one shared core had time for; models/README.md)
+MODELS.update({f"{m}_quick": replace(TRAIN_CONFIGS["quick"], model=m, steps=n, eval_every=n, checkpoint_every=n)
+               for m, n in (("erd", 1200), ("dae_lstm", 1200), ("pfnn", 600))})
 ZOO_ENV = "MOCAPVIZ_ZOO"  # folders (os.pathsep-separated) searched first for a model by name
 
 
@@ -67,7 +72,7 @@ def load(name: str = "ccnet_default", zoo_dir=None, cache_dir=None, dataset=None
         raise FileNotFoundError(f"{name}: no committed checkpoint in {zoo_dir}; pass cache_dir and dataset "
                                 "(a dataset or a builder) to use or train a cached run")
     ds = dataset() if callable(dataset) else dataset
-    cfg = TRAIN_CONFIGS[MODELS[name]]
+    cfg = MODELS[name]
     key = hashlib.sha256(f"{cfg.to_json()}\n{ds.meta['hash']}".encode()).hexdigest()[:12]
     run = Path(cache_dir) / f"{name}-{key}"
     model_file = run / "model.safetensors"

@@ -74,6 +74,9 @@ def register_model(name: str):
 def model_class(name: str) -> type:
     """The registered class of ``name`` (importing the built-in models first)."""
     import mocapviz.models.ccnet  # noqa: F401 - registers "ccnet"
+    import mocapviz.models.dae_lstm  # noqa: F401 - registers "dae_lstm"
+    import mocapviz.models.erd  # noqa: F401 - registers "erd"
+    import mocapviz.models.pfnn  # noqa: F401 - registers "pfnn"
     try:
         return MODELS[name]
     except KeyError:

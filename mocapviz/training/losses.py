@@ -81,3 +81,6 @@ def ccnet_window_loss(out: dict, batch: dict, cfg, lambdas=LAMBDAS) -> dict[str,
 
 
 LOSSES = {"ccnet": ccnet_window_loss}
+# The baselines (mocapviz.models.baseline) write CCNet's output layout: the same loss (CCNet's
+# L_G is Fragkiadaki's Gaussian-mixture loss with one mode, so it is ERD's own loss too).
+LOSSES.update({name: ccnet_window_loss for name in ("erd", "dae_lstm", "pfnn")})

@@ -118,6 +118,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
             raise ValueError(f"{ckpt} was trained with another config; use a new out_dir or resume=False")
         start = int(meta["step"])
         rows = read_log(csv_path, start)
+    if start == 0 and hasattr(model, "pretrain"):  # a model with a pretraining stage (DAE-LSTM's autoencoder)
+        model.pretrain(data, seed=cfg.seed)
     best = best_row(rows)
     best_val = float(best["val_nll"]) if best else math.inf
     model.train()
