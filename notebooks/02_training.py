@@ -28,10 +28,10 @@ FIG_DIR = "../figures"
 # control includes the **skeleton configuration** of the subject, one network models the motion
 # of many different bodies. Generation feeds each predicted mean back as the next input.
 #
-# This notebook walks through our implementation on the real HDM05 + CMU data of notebook 01:
-# the frame vector and the controls, the network (Eq. 2-5), the loss (Eq. 6-10), training
-# (§4.2), and long generated motion for two subjects with very different skeletons, one of
-# them the held-out test subject.
+# This notebook walks through our implementation on the real HDM05 + CMU + Bandai data of
+# notebook 01 (dataset v4): the frame vector and the controls, the network (Eq. 2-5), the loss
+# (Eq. 6-10), training (§4.2), and long generated motion for three bodies, one of them the
+# held-out test subject, measured at the level of poses.
 
 # %%
 import time
@@ -52,7 +52,16 @@ from mocapviz.metrics import foot_sliding
 from mocapviz.models.ccnet_config import receptive_field
 from mocapviz.models.protocol import count_parameters
 from mocapviz.tasks.generate import Generator
-from mocapviz.tasks.generation_quality import QUALITY_KEYS, generation_quality, real_reference
+from mocapviz.tasks.generation_quality import (
+    QUALITY_KEYS,
+    SEED_FRAMES,
+    generation_quality,
+    locomotion_seeds,
+    pose_bank,
+    pose_distance,
+    real_pose_distance,
+    real_reference,
+)
 from mocapviz.training.config import TRAIN_CONFIGS
 from mocapviz.training.trainer import evaluate
 from mocapviz.training.windows import WindowData
@@ -81,7 +90,8 @@ print("pyvista backend:", scene.set_notebook_backend(QUICK))
 # The control is $\mathbf c^s$ (root height + root-relative rest joint positions), the 12-D
 # trajectory $\mathbf c^d$ (the root 10, 20, ..., 60 frames ahead, in the current heading frame),
 # and a one-hot motion type over our merged types (HDM05's 11 classes with CMU's walk/run/jump/
-# kick mapped in: run → jog, jump → hop, kick → kick; CMU walk is its own type).
+# kick mapped in, then Bandai's contents appended: dash, walk-back, side step, wave, raise hand,
+# gesture, slash, dance; Bandai's run counts as jog and its turning walks as walk).
 
 # %%
 ds = build_dataset(DatasetConfig.quick() if QUICK else DatasetConfig(), progress=False)
@@ -90,8 +100,8 @@ display(pd.DataFrame(layout.table(), columns=["block", "start", "stop", "unit"])
 m = ds.meta
 print(f"{len(ds.clips)} clips, {m['n_frames']} frames at 60 fps ({m['n_frames'] / 3600:.1f} min), "
       f"{m['n_train_frames']} for training; test: subject {m['test_subject']!r} (all clips) + one clip of "
-      f"every other subject with two or more usable clips = {len(m['test_clips'])} clips; validation (model "
-      f"selection): every other clip of a second held-out actor, {m['val_subject']!r} = "
+      f"every other HDM05 subject + a seeded share of Bandai takes = {len(m['test_clips'])} clips; validation "
+      f"(model selection): the held-out actor {m['val_subject']!r} + a share of Bandai takes = "
       f"{len(m['val_clips'])} clips")
 display(ds.clips.groupby(["split", "type"]).size().unstack(0).fillna(0).astype(int).T)
 
@@ -145,21 +155,23 @@ if ckpt.is_file():
 # $L = L_G + 10\,L_s + 2\,L_f + 1\,L_d$: Gaussian NLL of the next frame (Eq. 7), smoothness of the
 # predicted means (Eq. 8), foot-contact BCE (Eq. 9), and the Gaussian NLL of the predicted
 # trajectory control (Eq. 10, folded in with weight 1). Eq. 8 as printed sums *signed* second
-# differences, which can go negative; we penalise their **square, averaged over channels**. (Summed
-# over our 304 channels with weight 10, the first default run learnt to output an almost constant
-# mean, zero acceleration, with a large sigma: the ReLU before the decoder died and generated
-# motion shuffled in place at a fifth of the real speed.) RMSprop, whole windows at once
-# (causality makes every output a valid next-frame prediction), i.i.d. N(0, 0.03²) noise on the
-# normalised inputs so that the network learns to recover from its own errors.
+# differences, which can go negative; we penalise their **square, averaged over channels**
+# (summed over 304 channels with weight 10 it made an early model output a constant mean). The
+# channels that never vary in the training data (rotations of joints without rotational freedom)
+# are left out of $L_G$ and $L_s$: kept in, their $\sigma$ shrank to ~0.002 and bought about
+# −218 nats per frame for nothing. Whole windows at once (causality makes every output a valid
+# next-frame prediction), i.i.d. N(0, 0.03²) noise on the normalised inputs.
 #
-# Window length (the paper's NCF = 240): many of our clips last 1-3 s, so NCF = 60 (1 s, the
-# shortest the paper tried): 244 of 302 clips give windows, 93% of the frames. Schedules: the
-# `paper` config keeps lr 1e-4 → 1e-6; the `default` (committed) and `quick` configs start at
-# 1e-3 (same 100× decay) because a CPU budget of a few thousand steps gets nowhere at 1e-4.
+# Optimiser: the `paper` config keeps RMSprop with lr 1e-4 → 1e-6. The `quick` and `default`
+# configs start at 1e-3 (a CPU budget of a few thousand steps gets nowhere at 1e-4) and therefore
+# use **Adam**: torch's RMSprop has no bias correction, and at 1e-3 it could not even overfit one
+# training clip (`tests/test_ccnet_training.py`); the first committed model, trained that way,
+# ignored its input and froze.
 
 # %%
 print(pd.DataFrame({k: {f: getattr(c, f) for f in ("size", "steps", "batch_size", "window", "lr", "lr_final",
-                                                     "noise_std")} for k, c in TRAIN_CONFIGS.items()}))
+                                                     "noise_std", "optimizer", "residual_blocks", "feedback_passes")}
+                    for k, c in TRAIN_CONFIGS.items()}))
 curves = {"default (committed)": Path("../models/zoo/ccnet_default_losses.csv")}
 if QUICK:  # a short demonstration of the training loop itself (the curves above come from the real run)
     from dataclasses import replace
@@ -174,56 +186,47 @@ fig = plot_training_curves({k: v for k, v in curves.items() if v.is_file()}, pat
 show_figure(fig)
 
 # %% [markdown]
-# Model selection uses the **validation** split only: every 250 steps the trainer evaluates the
-# validation NLL (every 60-frame window of the 43 clips of the held-out validation actor *mm*,
-# whom training never sees) and keeps the model with the
-# lowest as `best.safetensors`; that is the model `--export` commits. The test NLL (every frame of
-# non-overlapping 60-frame windows of the test clips; no noise, no dropout) is logged for
-# reporting only. $L_G$ is in nats per frame over the 304 normalised continuous channels.
-#
-# What the curves show: the validation NLL on *mm* falls to 38 at step 1500 and then rises (181
-# at step 3000), so validation selects step 1500; there the test NLL is 20 (20 on the held-out
-# subject *tr*, 18 on the five windows of the other subjects' test clips; table below). The test
-# curve does not follow validation exactly: it keeps falling to about −1 at step 2250 and ends at
-# 29. Both held-out actors say the same thing at the scale that matters: the network overfits
-# to the three training HDM05 actors' **bodies and styles** (the training $L_G$ keeps falling, to
-# about −135 at step 3000),
-# which is why validation holds out a whole actor (dataset v3). An earlier version validated on
-# one clip of each training actor: its validation NLL fell to −297 at step 3000 while *tr* rose
-# to +440, so it picked the most overfitted model. We never pick a step from the test curve. The
-# paper reports $L\approx-300$ on *its* test split, with 486k training frames of 12 subjects; our
-# held-out-subject NLL stays positive.
+# Model selection uses the **validation** split only: the trainer evaluates the validation NLL
+# (the held-out HDM05 actor *mm* plus a share of Bandai takes) on its schedule and keeps the
+# model with the lowest as `best.safetensors`; that is the model `--export` commits. The test NLL
+# (held-out subject *tr*, one clip of each other subject, a share of Bandai takes) is logged for
+# reporting only. $L_G$ is in nats per frame over the varying normalised channels. The paper
+# reports $L\approx-300$ on *its* test split. The table gives our NLL per held-out group:
 
 # %%
-data = WindowData(ds, 60, normaliser=norm)
+data = WindowData(ds, min(60, ds.config.window), normaliser=norm)
 held_out = ds.clips.subject.values[data.test[:, 0]] == ds.meta["test_subject"]
-splits = {f"validation, subject {ds.meta['val_subject']}": data.val, "test": data.test, f"test, subject {ds.meta['test_subject']}": data.test[held_out],
-          "test, one clip of each other subject": data.test[~held_out]}
+splits = {"validation": data.val, "test": data.test, f"test, subject {ds.meta['test_subject']}": data.test[held_out],
+          "test, other subjects and Bandai takes": data.test[~held_out]}
 print(pd.DataFrame({k: {"windows": len(p), **evaluate(model, data, p)} for k, p in splits.items()}).T.round(2))
 
 # %% [markdown]
-# ## 4 · Generation for two different bodies (§4.2)
+# ## 4 · Generation for three bodies (§4.2)
 #
-# Seeds: the first second of a real clip of each subject. Then 20 s of autoregressive synthesis
-# (the mean of each predicted Gaussian, fed back) with the clip's motion type and the network's
-# own predicted trajectory control $\hat{\mathbf c}^d$ (the paper's fallback when the user gives
-# none; following user paths is notebook 04). The held-out subject *tr* (1.75 m, never seen in
-# training) jogs; CMU subject 91 (1.37 m) walks. The poses come back through FK from the
-# generated rotations, the path from the integrated root block, and foot sliding is cleaned
-# by contact-triggered two-bone leg IK. The last column is the pose-level freezing share of the
-# generated frames (section 5 explains it): watch the film strips below with it in mind.
+# Seeds: 48 frames of a real clip of each body. Then autoregressive synthesis (the mean of each
+# predicted Gaussian, fed back) with the clip's motion type and the network's own predicted
+# trajectory control $\hat{\mathbf c}^d$ (the paper's fallback when the user gives none;
+# following user paths is notebook 04): the held-out HDM05 subject *tr* (1.75 m, never seen in
+# training) jogging, CMU subject 91 (1.37 m, a training subject) walking, and a held-out Bandai
+# walk take. The poses come back through FK from the generated rotations, the path from the
+# integrated root block, and foot sliding is cleaned by contact-triggered two-bone leg IK. The
+# printed numbers say, per body, whether its pose keeps moving and how far its poses are from
+# real ones (section 5 explains both); the film strips show seconds 15-17.
 
 # %%
 SECONDS = 20
+walk_take = ds.clips.iloc[locomotion_seeds(ds)[0]]["clip"]
 subjects = {
     "tr (held out)": ds.clips[(ds.clips.subject == ds.meta["test_subject"]) & (ds.clips.type == "jog")]["clip"].iloc[0],
     "cmu91": "91_02",
+    "bandai (held-out take)": walk_take,
 }
+bank = pose_bank(ds)
 generated = {}
 for label, clip in subjects.items():
     row = ds.clip_row(clip)
     r, a = ds.clips.iloc[row], ds.clip_arrays(row)
-    seed, n = 60, SECONDS * 60
+    seed, n = SEED_FRAMES, SECONDS * 60
     t = time.perf_counter()
     out = Generator(model, norm).run(a["x"][None, :seed], a["skel"][None], one_hot([a["type_index"]], cfg.n_types), n,
                                      seed_traj=a["traj"][None, :seed])
@@ -237,9 +240,10 @@ for label, clip in subjects.items():
     slide = lambda m: foot_sliding(m.positions(), raw.meta["contacts"], m.fps, foot_joints(m.skeleton))  # noqa: E731
     moving = raw[seed:]
     frozen = metrics.freezing_share(metrics.local_positions(moving.positions(), moving.skeleton), raw.fps)
-    print(f"{label:14s} seed {clip}: {n} frames in {dt:.2f} s; height {ds.clips.height[row]:.2f} m; root speed "
-          f"{speed:.2f} m/s; foot slide {slide(raw):.3f} -> {slide(clean):.3f} m/s with IK; "
-          f"pose frozen in {frozen:.0%} of its 1 s windows")
+    print(f"{label:24s} seed {clip}: {n} frames in {dt:.2f} s; root speed {speed:.2f} m/s; foot slide "
+          f"{slide(raw):.3f} -> {slide(clean):.3f} m/s with IK; pose frozen in {frozen:.0%} of its 1 s windows; "
+          f"pose distance {pose_distance(moving, bank) / real_pose_distance(ds, bank, r['type']):.1f}x the "
+          f"held-out real {r['type']} clips'")
 
 # %% [markdown]
 # Rendered with pyvista (quick mode: 6 frames/s and a film strip; full mode: 30 frames/s mp4).
@@ -247,46 +251,54 @@ for label, clip in subjects.items():
 # %%
 for label, g in generated.items():
     name = g["clean"].name
-    strip = scene.frame_strip(g["clean"], fig_dir / f"{name}_strip.png", n=8)
+    late = g["clean"][SEED_FRAMES + 15 * 60:SEED_FRAMES + 17 * 60]
+    scene.frame_strip(late, fig_dir / f"{name}_strip.png", n=8)
     display(Image(filename=str(fig_dir / f"{name}_strip.png")))
     paths = [fig_dir / f"{name}.gif"] + ([] if QUICK else [fig_dir / f"{name}.mp4"])
     scene.render_clip(g["clean"], paths, fps=6 if QUICK else 30, label=f"CCNet: {label}", progress=False)
     display(Image(filename=str(paths[0])))
 
 # %% [markdown]
-# ## 5 · Does it freeze? Pose-level metrics (issue 9)
+# ## 5 · Does it move, and like a person? Pose-level metrics (issue 9)
 #
-# Autoregressive models often settle into a mean pose. The measure must read the **poses**: the
-# joint positions from FK, relative to the root joint and turned into the body's heading frame
-# (`mocapviz.metrics.local_positions`), so a statue gliding along its path scores as frozen. (An
-# earlier version of this notebook read the network's own velocity channels instead: they settle
-# to a constant non-zero value while the pose is frozen, and it reported "no freezing".)
+# Autoregressive models often settle into a mean pose, or wander off the space of real poses.
+# The measures read the **poses**: joint positions from FK, relative to the root joint and turned
+# into the body's heading frame (`mocapviz.metrics.local_positions`), so a statue gliding along
+# its path scores as frozen. (An earlier version of this notebook read the network's velocity
+# channels instead: they settle to a constant non-zero value while the pose is frozen.)
 #
-# Ten test-split seeds (round-robin over motion types) are generated free-running (the network's
-# own $\hat{\mathbf c}^d$), with the **mean** output and with **sampling** from the predicted
+# Ten test seeds of locomotion and repeatable motion (walk, turning walk, run, jog, sneak, hop,
+# walk-back, side step, waving, dash; `mocapviz.tasks.generation_quality.LOCOMOTION_SEEDS`) are
+# generated free-running, with the **mean** output and with **sampling** from the predicted
 # Gaussian, and the second half is measured (`mocapviz.tasks.generation_quality`, the same code as
-# `benchmarks/bench_generation.py`, which runs 60 s): the share of 1 s windows whose mean local
-# joint speed is under 1 cm/s (no real clip has such a window), the activity (pose change per
-# second) and jitter (second differences) as ratios to the real clips of the same type, and the
-# root height relative to the seed's (a drifting body shows there).
+# `benchmarks/bench_generation.py`, which runs 60 s):
 #
-# **What it shows for the committed model**: with the mean output the pose freezes within
-# seconds (freezing share 1, activity ratio ~0): only the integrated root moves. Sampling does not
-# freeze, but it is noise, not motion: activity tens of times and jitter hundreds of times the
-# real clips'. The numbers below are computed, not typed.
+# * freezing share: 1 s windows whose mean local joint speed is under 1 cm/s (no real clip has one);
+# * activity (pose change per second) and jitter (second differences) as ratios to the real clips
+#   of the same type;
+# * **pose distance**: each pose's distance to the nearest training pose (`metrics.PoseBank`), as a
+#   ratio to the held-out real clips of the type: a body tumbling through impossible poses at a
+#   walk's pace has walk-like activity and jitter but not walk-like poses;
+# * root height relative to the seed's (a drifting body shows there).
+#
+# Note what the data allow: HDM05's sneak and hop clips are single strides and hops (1-2 s) and
+# no source holds a minute of them; a model that stops after a sneak has learnt what it was shown.
 
 # %%
 secs = 20 if QUICK else 60
-quality = {mode: generation_quality(model, norm, ds, secs, sample=mode == "sample") for mode in ("mean", "sample")}
+quality = {mode: generation_quality(model, norm, ds, secs, sample=mode == "sample", bank=bank)
+           for mode in ("mean", "sample")}
 for mode, q in quality.items():
-    print(f"{mode} output, 10 x {secs} s, seconds {secs // 2}-{secs} (min / median / max over the seeds):")
+    print(f"{mode} output, {len(q['per_clip'])} x {secs} s, seconds {secs // 2}-{secs} (min / median / max over the seeds):")
     for key, v in q["summary"].items():
-        print(f"    {key:18s} {v}")
+        print(f"    {key:20s} {v}")
 print(pd.concat({mode: pd.DataFrame(q["per_clip"]).T[["type", *QUALITY_KEYS]] for mode, q in quality.items()},
-                axis=1).round(3))
-verdict = quality["mean"]["summary"]["freezing_share"][1], quality["sample"]["summary"]["jitter_ratio"][1]
-print(f"mean output: median freezing share {verdict[0]:.2f} ({'frozen' if verdict[0] > 0.5 else 'moving'}); "
-      f"sampling: median jitter {verdict[1]:.0f}x the real clips' ({'noise' if verdict[1] > 3 else 'plausible'})")
+                axis=1).round(2))
+for mode, q in quality.items():
+    c = pd.DataFrame(q["per_clip"]).T
+    ok = (c.freezing_share == 0) & c.activity_ratio.between(0.5, 2) & (c.jitter_ratio <= 3) & (c.pose_distance_ratio <= 3)
+    print(f"{mode}: {int(ok.sum())} of {len(c)} seeds keep moving like the real clips (not frozen, activity 0.5-2x, "
+          f"jitter <= 3x, pose distance <= 3x): {', '.join(c.index[ok]) or 'none'}")
 
 # %% [markdown]
 # The pose speed over time (mean local joint speed per frame) of two of these seeds, mean and
@@ -303,7 +315,7 @@ for ax, clip in zip(axes, clips):
     ax.axhline(real_reference(ds, quality["mean"]["per_clip"][clip]["type"])[0], color="k", ls=":",
                label="real clips of this type")
     ax.axhline(metrics.FROZEN_SPEED, color="crimson", ls="--", label="freezing threshold")
-    ax.axvline(1.0, color="grey", lw=0.5)
+    ax.axvline(SEED_FRAMES / 60, color="grey", lw=0.5)
     ax.set_title(clip, fontsize=9)
     ax.set_xlabel("time (s; seed before the grey line)")
 axes[0].set_ylabel("mean local joint speed (m/s)")
@@ -314,28 +326,20 @@ show_figure(fig)
 # %% [markdown]
 # ## 6 · How this compares with the paper
 #
-# * **Data.** The paper trains on 486k frames of 12 subjects with long, mixed recordings; we have
-#   about 37k frames at 60 fps (~10 min of HDM05 plus ~35 s of usable CMU clips; 24k frames for
-#   training after the test and validation clips), mostly 1-3 s clips of single actions. Our
-#   windows are 1 s (not 4 s), the network sees few transitions, and our CMU subjects contribute
-#   one short clip each: skeleton conditioning is learnt from three training HDM05 bodies plus a
-#   handful of CMU ones.
-# * **Training.** A few thousand steps on one CPU core, against the paper's 2000 epochs on a GPU.
-#   On the held-out actors our $L_G$ stays positive (about 38 on the validation actor *mm* and
-#   20 on the test subject *tr* at the selected step, against the paper's ≈ −300, while the
-#   training $L_G$ there is about −60 and −135 by step 3000). Part of even that is free: 44 of the
-#   304 channels are constant in the training data, and the committed model was trained with them
-#   in $L_G$ (their $\sigma$ shrank to ~0.002, about −218 nats per frame); the training code now
-#   leaves them out.
+# * **Data.** The paper trains on 486k frames of 12 subjects with long, mixed recordings. Dataset
+#   v4 has about 432k frames at 60 fps, 94 minutes for training, but 90 % of it is Bandai's one
+#   skeleton (three actors); HDM05 gives short single-action clips of three training actors and
+#   CMU a handful of short clips. Skeleton conditioning is learnt from few bodies.
+# * **Training.** Minutes on one CPU core (see `models/README.md` for the committed run), against
+#   the paper's 2000 epochs on a GPU.
 # * **Generation.** The paper generates "more than 20,000 frames" of motion that does not freeze.
-#   The committed model does not move: with the mean output its pose freezes within seconds
-#   (section 5) while the root glides along the path, and sampling gives noise. The cause is in
-#   training, not in the generator: teacher-forced on *training* windows, its predicted mean is
-#   5-12x further from the next frame than the current frame is (issue 9's diagnosis). The
-#   likeliest culprit is the optimiser: torch's RMSprop (no bias correction) at lr 1e-3 cannot
-#   even overfit one training clip, Adam can (`tests/test_ccnet_training.py`), so the `quick` and
-#   `default` configs now use Adam (`mocapviz/training/config.py`). A model retrained that way is
-#   still to come; until then this notebook shows a model that freezes.
+#   Section 5 prints, per seed, which of ours keep moving with plausible poses and which freeze;
+#   sampling from the predicted Gaussian stays noise because our $\sigma$ (tenths of a standard
+#   deviation) is far above the paper's $10^{-4}$-$10^{-3}$: the network's one-step prediction
+#   is still much worse than copying the current frame. Issue 9 records what we tried: a residual
+#   mean (on every channel it drifts without bound; on the rotations and positions only it never
+#   freezes but tumbles through impossible poses, 6-26x the real pose distance) and training on
+#   its own predictions.
 # * **Speed.** The incremental generator (each block keeps its past inputs) makes a frame cost one
 #   small matmul chain per block: thousands of frames per second on a laptop CPU, against the
 #   ~65 fps the paper reports for its LibTorch demo.

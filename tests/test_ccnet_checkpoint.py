@@ -18,7 +18,7 @@ from mocapviz.models.steppers import CCNetStepper
 from mocapviz.training.checkpoint import FORMAT, load_checkpoint, read_checkpoint, save_checkpoint
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
-CKPT = repo_zoo.committed_path("ccnet_default")
+CKPT = repo_zoo.committed_path("ccnet_v3_rmsprop")  # the first committed model, pre-registry format
 
 
 def _fixture_module():

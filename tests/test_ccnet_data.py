@@ -230,17 +230,18 @@ def test_every_catalog_type_is_merged(full_catalog):
 
 
 def test_type_vocabulary_is_stored_and_old_checkpoints_keep_their_indices(ds):
-    """The dataset stores its vocabulary; ``ccnet_default`` (13 types, dataset v3) reads index i
+    """The dataset stores its vocabulary; ``ccnet_v3_rmsprop`` (13 types, dataset v3) reads index i
     as MOTION_TYPES[i] and runs (evaluation and generation) on the dataset restricted to its own
     vocabulary, and on a dataset built with its vocabulary's sources (HDM05 + CMU)."""
     from data_prep import zoo
     from data_prep.ccnet_dataset import DatasetConfig, build_dataset
     from mocapviz.features.motion_types import one_hot, vocabulary
     from mocapviz.tasks.generate import Generator
+    from mocapviz.training.checkpoint import load_checkpoint
     from mocapviz.training.trainer import evaluate
     from mocapviz.training.windows import WindowData
     assert ds.motion_types == MOTION_TYPES and ds.layout.n_types == len(MOTION_TYPES) == 21
-    model, norm, meta = zoo.load("ccnet_default", retrain_if_missing=False)
+    model, norm, meta = load_checkpoint(zoo.committed_path("ccnet_v3_rmsprop"))
     old = vocabulary(model.cfg.n_types, meta["dataset"]["motion_types"])
     assert model.cfg.n_types == 13 and old == MOTION_TYPES[:13] and "walk_back" not in old
     with pytest.raises(ValueError, match="not the first"):

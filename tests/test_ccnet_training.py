@@ -155,13 +155,21 @@ def test_checkpoint_carries_config_and_normaliser(ds, tmp_path):
     assert "optim_param_groups" in meta
 
 
+def free_port() -> int:
+    """A TCP port nothing listens on now (a fixed one clashed with other jobs on the machine)."""
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 @pytest.mark.slow
 def test_torchrun_two_processes_gloo(ds, tmp_path):
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2", "--master_port=29517",
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2", f"--master_port={free_port()}",
            "-m", "data_prep", "train", "--config", "quick", "--dataset", "quick", "--steps", "4", "--batch-size", "4",
            "--eval-every", "2", "--out", str(tmp_path)]
-    res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300,
+    res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=900,
                          cwd=Path(__file__).resolve().parent.parent)
     assert res.returncode == 0, res.stderr[-3000:]
     assert len(rows(tmp_path)) == 4  # rank 0 alone wrote the log

@@ -252,7 +252,8 @@ def test_the_rig_sees_past_a_file_rest_pose(data_dir, checkpoint):
     a, b = (r.to_model(m) for r, m in zip(rigs, (seed, turned)))
     np.testing.assert_allclose(rigs[1].skeleton.offsets, rigs[0].skeleton.offsets, atol=1e-9)
     np.testing.assert_allclose(b.rotations, a.rotations, atol=1e-9)
-    # the twist fit brings Bandai's rotations to the training range: mean |z| 1.5 -> 0.5 on this walk
+    # the twist fit brings Bandai's rotations to the training range (standard normal data has mean
+    # |z| 0.80): 1.5 -> 0.5 on this walk with the v3 model (no Bandai in training), -> 0.75 with v4's
     bandai = load_seed(data_dir / BANDAI_WALK[0]).resample(60)[:120]
     z = []
     for stats in (None, rotation_stats(norm, 25)):
@@ -260,7 +261,7 @@ def test_the_rig_sees_past_a_file_rest_pose(data_dir, checkpoint):
                        mean_rest(norm), stats)
         x = motion_features(rig.to_model(bandai)).x
         z.append(np.abs(norm.norm_x(x)[:, :75]).mean())
-    assert z[1] < 0.7 < 1.2 < z[0]
+    assert z[1] < 0.85 < 1.2 < z[0]
     # without the alignment the model would read other local rotations
     plain = [ModelRig(m, map_to_ccnet25(sk.names), ds["joint_names"], ds["parents"]) for m in (seed, turned)]
     assert np.abs(plain[1].to_model(turned).rotations - plain[0].to_model(seed).rotations).max() > 0.5
