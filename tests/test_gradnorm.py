@@ -26,14 +26,14 @@ def _train(use_gradnorm: bool, steps: int = 1000, lr: float = 2e-3):
         f = trunk(x)
         losses = [torch.nn.functional.mse_loss(heads[0](f), y_small),
                   100 * torch.nn.functional.mse_loss(heads[1](f), y_big)]
-        first = first or [float(v) for v in losses]
+        first = first or [float(v.detach()) for v in losses]
         opt.zero_grad()
         if use_gradnorm:
             info = gn.step(losses, params, trunk[2].weight)
         else:
             sum(losses).backward()
         opt.step()
-    rates = [float(v) / f0 for v, f0 in zip(losses, first)]
+    rates = [float(v.detach()) / f0 for v, f0 in zip(losses, first)]
     return rates, gn, (info if use_gradnorm else None)
 
 
