@@ -74,6 +74,7 @@ def register_model(name: str):
 def model_class(name: str) -> type:
     """The registered class of ``name`` (importing the built-in models first)."""
     import mocapviz.models.ccnet  # noqa: F401 - registers "ccnet"
+    import mocapviz.models.cvae4d  # noqa: F401 - registers "cvae4d"
     try:
         return MODELS[name]
     except KeyError:
