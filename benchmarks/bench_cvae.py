@@ -20,23 +20,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
-import time
 
 import numpy as np
 import torch
-
-
-def _interleaved_ms(fns, repeat: int) -> list[float]:
-    for fn in fns:  # warm-up
-        fn()
-    times = [[] for _ in fns]
-    for _ in range(repeat):
-        for fn, ts in zip(fns, times):
-            t = time.perf_counter()
-            fn()
-            ts.append(1000 * (time.perf_counter() - t))
-    return [statistics.median(ts) for ts in times]
+from bench_body import (
+    _interleaved_ms,  # median ms of functions run alternately (this folder)
+)
 
 
 def main(argv=None) -> int:
@@ -48,10 +37,10 @@ def main(argv=None) -> int:
 
     from data_prep.body4d_dataset import Body4DConfig, build_dataset
     from mocapviz.bodies.anny_model import body_model
+    from mocapviz.models.cvae4d import kl_divergence
     from mocapviz.models.protocol import model_class
     from mocapviz.training.cvae4d import CVAE_CONFIGS, TASKS, make_mesher, task_losses
     from mocapviz.training.gradnorm import GradNorm
-    from mocapviz.models.cvae4d import kl_divergence
 
     ds = build_dataset(Body4DConfig.quick(), progress=False)
     idx = np.resize(np.arange(len(ds)), 16)
@@ -71,8 +60,7 @@ def main(argv=None) -> int:
     result.update(decode_ms_per_cycle_b1=round(one, 1), decode_ms_per_cycle_b16=round(batch / 16, 1),
                   vertices=body.n_vertices)
 
-    params = list(model.parameters())
-    opt = torch.optim.Adam(params, lr=cfg.lr)
+    opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
     for label, n_subset in (("all", 0), ("subset", cfg.vertex_subset)):
         mesher = make_mesher(body, ds.gamma_scale, n_subset)
         gradnorm = GradNorm(TASKS[2])
@@ -83,7 +71,8 @@ def main(argv=None) -> int:
             out = model(chi, beta)
             losses = task_losses(2, out["chi"], chi, beta, mesher)
             opt.zero_grad(set_to_none=True)
-            gradnorm.step(losses, params, model.shared_layer, extra=cfg.kl_weight * kl_divergence(out["mu"], out["logvar"]))
+            gradnorm.step(losses, out["chi"], model.shared_layer,
+                          extra=cfg.kl_weight * kl_divergence(out["mu"], out["logvar"]))
             opt.step()
 
         def mesh_only():

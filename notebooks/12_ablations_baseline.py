@@ -34,7 +34,7 @@ FIG_DIR = "../figures"
 #
 # Box plots as the paper's: box = quartiles, line = median, whiskers by Tukey's rule (1.5 IQR).
 #
-# The ablation models are trained **in quick mode**: phase 1 only, 1000 epochs each
+# The ablation models are trained **in quick mode**: phase 1 only, 300 epochs each
 # (`python -m data_prep train-cvae --ablations --export`), so that the seven of them fit our CPU
 # budget; they are compared with each other, not with the phase-2 model. Full mode trains them
 # here with the same schedule as the committed phase-1 model.
@@ -52,8 +52,14 @@ from data_prep.body4d_dataset import Body4DConfig, build_dataset
 from data_prep.train_cvae import ABLATIONS
 from data_prep.zoo import ZOO_DIR
 from mocapviz.bodies import body_model
-from mocapviz.tasks.cvae4d_eval import (PCABaseline, boxplot_errors, error_table, load_checkpoints,
-                                        reconstruction_errors, test_sets)
+from mocapviz.tasks.cvae4d_eval import (
+    PCABaseline,
+    boxplot_errors,
+    error_table,
+    load_checkpoints,
+    reconstruction_errors,
+    test_sets,
+)
 from mocapviz.training.cvae4d import CVAE_CONFIGS, split_indices, train, with_overrides
 from mocapviz.viz import save_figure
 

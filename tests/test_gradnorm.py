@@ -5,36 +5,36 @@ from __future__ import annotations
 import pytest
 import torch
 
-from mocapviz.training.gradnorm import GradNorm, task_gradients
+from mocapviz.training.gradnorm import GradNorm
 
 
 def _train(use_gradnorm: bool, steps: int = 1000, lr: float = 2e-3):
-    """A shared trunk, two heads; task "big" is 100 x an MSE, task "small" an MSE of another target.
-    Plain SGD, so a task's pace follows its gradient. Returns (L/L(0) per task, GradNorm)."""
+    """A shared trunk and one linear head with a column per task (every parameter before the
+    output, as in the CVAE); task "big" is 100 x an MSE, task "small" an MSE of another target.
+    Plain SGD, so a task's pace follows its gradient. Returns (L/L(0) per task, GradNorm, info)."""
     g = torch.Generator().manual_seed(0)
     x = torch.randn(256, 8, generator=g)
     a, b = torch.randn(8, generator=g), torch.randn(8, generator=g)
-    y_small, y_big = torch.sin(x @ a)[:, None], torch.cos(x @ b)[:, None]
+    y_small, y_big = torch.sin(x @ a), torch.cos(x @ b)
     torch.manual_seed(0)
-    trunk = torch.nn.Sequential(torch.nn.Linear(8, 64), torch.nn.ReLU(), torch.nn.Linear(64, 64), torch.nn.ReLU())
-    heads = torch.nn.Linear(64, 1), torch.nn.Linear(64, 1)
-    params = [*trunk.parameters(), *heads[0].parameters(), *heads[1].parameters()]
-    opt = torch.optim.SGD(params, lr=lr)
+    net = torch.nn.Sequential(torch.nn.Linear(8, 64), torch.nn.ReLU(), torch.nn.Linear(64, 64), torch.nn.ReLU(),
+                              torch.nn.Linear(64, 2))
+    opt = torch.optim.SGD(net.parameters(), lr=lr)
     gn = GradNorm(["small", "big"])
-    first = None
+    first, info = None, None
     for _ in range(steps):
-        f = trunk(x)
-        losses = [torch.nn.functional.mse_loss(heads[0](f), y_small),
-                  100 * torch.nn.functional.mse_loss(heads[1](f), y_big)]
+        out = net(x)
+        losses = [torch.nn.functional.mse_loss(out[:, 0], y_small),
+                  100 * torch.nn.functional.mse_loss(out[:, 1], y_big)]
         first = first or [float(v.detach()) for v in losses]
         opt.zero_grad()
         if use_gradnorm:
-            info = gn.step(losses, params, trunk[2].weight)
+            info = gn.step(losses, out, net[2].weight)
         else:
             sum(losses).backward()
         opt.step()
     rates = [float(v.detach()) / f0 for v, f0 in zip(losses, first)]
-    return rates, gn, (info if use_gradnorm else None)
+    return rates, gn, info
 
 
 def test_fixed_weights_leave_the_small_task_behind():
@@ -62,11 +62,12 @@ def test_reset_restores_unit_weights():
 
 def test_network_gradient_is_the_weighted_sum():
     p = torch.nn.Parameter(torch.tensor([1.0, 2.0]))
-    losses = [(p ** 2).sum(), 3 * p.sum()]
+    out = 1.0 * p
     gn = GradNorm(["a", "b"])
     with torch.no_grad():
         gn.weights.copy_(torch.tensor([0.5, 1.5]))
-    grads = task_gradients(losses, [p])
-    torch.testing.assert_close(grads[0][0], torch.tensor([2.0, 4.0]))
-    gn.step([(p ** 2).sum(), 3 * p.sum()], [p], p, extra=p.sum())
+    info = gn.step([(out ** 2).sum(), 3 * out.sum()], out, p, extra=p.sum())
+    # 0.5 * d(sum p^2) + 1.5 * d(3 sum p) + d(sum p)
     torch.testing.assert_close(p.grad, 0.5 * torch.tensor([2.0, 4.0]) + 1.5 * 3 + 1.0)
+    # G_i = w_i |dL_i/dp|: 0.5 |(2, 4)| and 1.5 |(3, 3)|
+    assert info["G_a"] == pytest.approx(0.5 * 20 ** 0.5) and info["G_b"] == pytest.approx(1.5 * 18 ** 0.5)

@@ -43,7 +43,7 @@ class CVAE4DConfig:
         return json.dumps(asdict(self), sort_keys=True)
 
     @classmethod
-    def from_json(cls, s: str) -> "CVAE4DConfig":
+    def from_json(cls, s: str) -> CVAE4DConfig:
         return cls(**json.loads(s))
 
 

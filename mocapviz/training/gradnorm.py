@@ -11,8 +11,8 @@ no asymmetry; what we do, per training step, with task losses L_i and weights w_
   step of the weights on L_grad, then the weights are renormalised to sum to the number of tasks.
 
 The network's gradient is sum_i w_i grad L_i with the weights of this step (before their update).
-Each task's gradient is computed once (:func:`task_gradients`) and serves both the norms and the
-network's step, so GradNorm costs no extra backward pass through the mesh.
+Each task's gradient is taken once at the network's output and serves both the norms and the
+network's step, so GradNorm costs no extra backward pass through the mesh or the encoder.
 
 **alpha = 1.5** (``DEFAULT_ALPHA``): alpha sets how hard slow tasks are pulled back to the common
 rate (alpha = 0 only equalises gradient norms). Chen et al. use 1.5 on NYUv2's regression tasks
@@ -29,16 +29,6 @@ import torch
 
 DEFAULT_ALPHA = 1.5
 DEFAULT_LR = 0.025  # Adam on the weights (as the network's lr, it sets how fast they follow)
-
-
-def task_gradients(losses, params) -> list[list[torch.Tensor]]:
-    """d L_i / d params for each loss (zeros where a parameter does not reach a loss)."""
-    params = list(params)
-    out = []
-    for i, loss in enumerate(losses):
-        grads = torch.autograd.grad(loss, params, retain_graph=i < len(losses) - 1, allow_unused=True)
-        out.append([torch.zeros_like(p) if g is None else g for p, g in zip(params, grads)])
-    return out
 
 
 class GradNorm:
@@ -59,24 +49,29 @@ class GradNorm:
     def current(self) -> dict[str, float]:
         return {n: float(w) for n, w in zip(self.names, self.weights.detach())}
 
-    def step(self, losses, params, shared: torch.Tensor, extra=None) -> dict[str, float]:
-        """One GradNorm step: sets ``p.grad`` of ``params`` to sum_i w_i dL_i/dp (+ d extra/dp)
-        and updates the weights. ``losses``: the task losses in the order of ``names``;
-        ``shared``: the weight tensor W (one of ``params``); ``extra``: a loss with a fixed
-        weight (the KL term). Returns the weights used, the gradient norms G_i and rates r_i."""
-        params = list(params)
+    def step(self, losses, output: torch.Tensor, shared: torch.Tensor, extra=None) -> dict[str, float]:
+        """One GradNorm step: backpropagates sum_i w_i L_i (+ ``extra``) into the parameters'
+        ``.grad`` (zero them before) and updates the weights.
+
+        ``losses``: the task losses in the order of ``names``, each a function of ``output``
+        (a tensor downstream of every trained parameter: the CVAE's chi_hat); ``shared``: the
+        weight tensor W; ``extra``: a loss with a fixed weight (the KL term). Each task's
+        gradient at ``output`` is taken once (through the mesh, for the spatial loss) and serves
+        both its norm at W (a short backward from ``output`` to W) and the one backward of the
+        weighted sum through the network. Returns the weights used, the G_i and the rates r_i."""
         losses = list(losses)
         values = torch.stack([loss.detach() for loss in losses])
         if self.initial is None:
             self.initial = values.clamp_min(1e-12)
-        all_losses = losses + ([extra] if extra is not None else [])
-        grads = task_gradients(all_losses, params)
-        k = next(i for i, p in enumerate(params) if p is shared)
-        norms = torch.stack([g[k].norm() for g in grads[:len(losses)]])
+        at_output = [torch.autograd.grad(loss, output, retain_graph=True)[0] for loss in losses]
+        norms = torch.stack([torch.autograd.grad(output, shared, grad_outputs=g, retain_graph=True)[0].norm()
+                             for g in at_output])
         w = self.weights.detach().clone()
-        for j, p in enumerate(params):
-            total = sum(w[i] * grads[i][j] for i in range(len(losses)))
-            p.grad = total + grads[-1][j] if extra is not None else total
+        weighted_grad = sum(wi * g for wi, g in zip(w, at_output))
+        if extra is None:
+            torch.autograd.backward([output], [weighted_grad])
+        else:
+            torch.autograd.backward([output, extra], [weighted_grad, torch.ones_like(extra)])
 
         ratio = values / self.initial
         rate = ratio / ratio.mean()
