@@ -63,17 +63,24 @@ class PCABaseline:
         return back[:, :-beta.shape[1]].reshape((len(chi),) + self.shape).astype(np.float32)
 
 
-@torch.no_grad()
 def vertex_errors(mesher, chi: np.ndarray, chi_hat: np.ndarray, beta: np.ndarray, batch: int = 4) -> np.ndarray:
     """Mean vertex error (B,) in mm of each reconstructed cycle: distances between corresponding
     vertices of the meshes of chi and chi_hat (B, N, C) on bodies beta, averaged over vertices and frames."""
-    out = []
+    return vertex_errors_many(mesher, chi, {"": chi_hat}, beta, batch)[""]
+
+
+@torch.no_grad()
+def vertex_errors_many(mesher, chi: np.ndarray, chi_hats: dict, beta: np.ndarray, batch: int = 4) -> dict:
+    """:func:`vertex_errors` of several reconstructions (name -> chi_hat) of the same cycles,
+    meshing the truth once per batch: {name: (B,) mm}."""
+    out = {name: [] for name in chi_hats}
     for i in range(0, len(chi), batch):
         b = torch.as_tensor(beta[i:i + batch])
         truth = mesher(torch.as_tensor(chi[i:i + batch]), b, vertex_major=True)
-        pred = mesher(torch.as_tensor(chi_hat[i:i + batch]), b, vertex_major=True)
-        out.append(1000 * (pred - truth).norm(dim=-1).mean(dim=(1, 2)).double())
-    return torch.cat(out).numpy() if out else np.zeros(0)
+        for name, chi_hat in chi_hats.items():
+            pred = mesher(torch.as_tensor(chi_hat[i:i + batch]), b, vertex_major=True)
+            out[name].append(1000 * (pred - truth).norm(dim=-1).mean(dim=(1, 2)).double())
+    return {name: torch.cat(v).numpy() if v else np.zeros(0) for name, v in out.items()}
 
 
 def error_table(errors: dict[tuple[str, str], np.ndarray]) -> pd.DataFrame:
@@ -127,7 +134,8 @@ def reconstruction_errors(ds, models: dict, body=None, pca_latent: int | None = 
     recon = {"pca": pca.reconstruct}
     recon.update({n: (lambda chi, beta, m=m: reconstruct_cvae(m, chi, beta)) for n, m in models.items()})
     errors = {}
-    for name, fn in tqdm(recon.items(), desc="reconstruction errors", disable=not progress):
-        for t, idx in test_sets(ds).items():
-            errors[(name, t)] = vertex_errors(mesher, ds.chi[idx], fn(ds.chi[idx], ds.beta[idx]), ds.beta[idx])
+    for t, idx in tqdm(test_sets(ds).items(), desc="reconstruction errors", disable=not progress):
+        chi_hats = {name: fn(ds.chi[idx], ds.beta[idx]) for name, fn in recon.items()}
+        for name, err in vertex_errors_many(mesher, ds.chi[idx], chi_hats, ds.beta[idx]).items():
+            errors[(name, t)] = err
     return errors
