@@ -46,6 +46,7 @@ bench: setup
 	$(PY) benchmarks/bench_io.py
 	$(PY) benchmarks/bench_generation.py
 	$(PY) benchmarks/bench_body.py
+	$(PY) benchmarks/bench_cvae.py
 
 clean:
 	rm -rf $(VENV) cache figures/*.png

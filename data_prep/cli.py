@@ -1,4 +1,4 @@
-"""``python -m data_prep {catalog,build,download,train}``: see ``--help`` of each subcommand."""
+"""``python -m data_prep {catalog,build,download,train,train-cvae}``: see ``--help`` of each subcommand."""
 
 from __future__ import annotations
 
@@ -59,6 +59,11 @@ def _train(args) -> int:
     return run(args)
 
 
+def _train_cvae(args) -> int:
+    from data_prep.train_cvae import run
+    return run(args)
+
+
 def parser() -> argparse.ArgumentParser:
     from data_prep.download import DEFAULT_DEST
     p = argparse.ArgumentParser(prog="python -m data_prep", description=__doc__)
@@ -91,6 +96,12 @@ def parser() -> argparse.ArgumentParser:
     t = sub.add_parser("train", help="train a model on the CCNet dataset (see data_prep/train.py)")
     add_arguments(t)
     t.set_defaults(func=_train)
+
+    from data_prep.train_cvae import add_arguments as add_cvae_arguments
+    v = sub.add_parser("train-cvae", help="train the 4D motion CVAE (phases 1, 2, ablations) or write its "
+                       "reconstruction table (see data_prep/train_cvae.py)")
+    add_cvae_arguments(v)
+    v.set_defaults(func=_train_cvae)
     return p
 
 

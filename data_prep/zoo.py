@@ -26,3 +26,8 @@ def load(name: str = "ccnet_default", retrain_if_missing: bool = True, prefer_co
 
     return zoo.load(name, ZOO_DIR, RUNS_DIR, dataset, retrain_if_missing=retrain_if_missing,
                     prefer_committed=prefer_committed, progress=progress)
+
+
+def load_cvae4d(name: str = "cvae4d_phase2"):
+    """(model, meta) of a committed 4D motion CVAE in ``models/zoo/``."""
+    return zoo.load_cvae4d(name, ZOO_DIR)

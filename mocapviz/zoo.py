@@ -82,3 +82,12 @@ def load(name: str = "ccnet_default", zoo_dir=None, cache_dir=None, dataset=None
         train(ds, cfg, run, resume=True, progress=progress)
         export_model(run, model_file)  # the best-by-validation model of the run
     return load_checkpoint(model_file)
+
+
+def load_cvae4d(name_or_file: str, zoo_dir=None):
+    """(model, meta) of a committed 4D motion CVAE (``cvae4d_*``: phase 1, phase 2, ablations),
+    from ``zoo_dir`` or the :func:`search_path`; trained by ``python -m data_prep train-cvae``."""
+    from mocapviz.training.cvae4d import load_cvae
+
+    path = committed_path(name_or_file, zoo_dir) if zoo_dir is not None else find_checkpoint(name_or_file)
+    return load_cvae(path)

@@ -77,6 +77,7 @@ def model_class(name: str) -> type:
     import mocapviz.models.dae_lstm  # noqa: F401 - registers "dae_lstm"
     import mocapviz.models.erd  # noqa: F401 - registers "erd"
     import mocapviz.models.pfnn  # noqa: F401 - registers "pfnn"
+    import mocapviz.models.cvae4d  # noqa: F401 - registers "cvae4d"
     try:
         return MODELS[name]
     except KeyError:

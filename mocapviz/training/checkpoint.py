@@ -83,11 +83,16 @@ def load_checkpoint(path, optimizer: torch.optim.Optimizer | None = None, model:
                 _, pid, name = k.split(".", 2)
                 state.setdefault(int(pid), {})[name] = v
         optimizer.load_state_dict({"state": state, "param_groups": json.loads(meta["optim_param_groups"])})
+    model.eval()
+    return model, norm, decode_metadata(meta)
+
+
+def decode_metadata(meta: dict[str, str]) -> dict:
+    """Checkpoint metadata with its JSON values decoded (plain strings stay strings)."""
     decoded = {}
     for k, v in meta.items():
         try:
             decoded[k] = json.loads(v)
         except (json.JSONDecodeError, TypeError):
             decoded[k] = v
-    model.eval()
-    return model, norm, decoded
+    return decoded

@@ -1,0 +1,141 @@
+"""Reconstruction of held-out cycles by the 4D CVAE and the PCA baseline (4D motion paper §4.3-4.4).
+
+- test sets: one per value of the dataset's ``split`` column other than "train" and "val",
+  mirrored copies left out (:func:`test_sets`);
+- a CVAE reconstructs chi with z = mu (no sampling) and the cycle's true beta;
+- the baseline is scikit-learn's PCA on the training cycles' [chi, beta] (flattened chi, beta
+  appended), with dim(z) + dim(beta) components capped by the rank the training set allows
+  (n_train - 1 after centring); a cycle is projected with its true beta and rebuilt, and, as in
+  §4.4, meshed with the true beta rather than the rebuilt one (:class:`PCABaseline`);
+- the metric is the **mean vertex error per sequence**: the Euclidean distance between
+  corresponding vertices of the true and reconstructed meshes (every anny vertex, both meshed by
+  :class:`mocapviz.bodies.torch_mesh.ChiMesher` from the first root at the origin), averaged over
+  vertices and the 100 frames, in mm (:func:`vertex_errors`);
+- :func:`error_table` summarises per (model, test set): n, mean, median, q1, q3 in mm;
+  :func:`boxplot_errors` draws Tukey box plots (whiskers at 1.5 IQR), as the paper's Figs. 3-5.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import torch
+from sklearn.decomposition import PCA
+
+from mocapviz.training.cvae4d import split_indices
+
+NOT_TEST = ("train", "val")
+
+
+def test_sets(ds) -> dict[str, np.ndarray]:
+    """Cycle indices of each test set: split name -> indices (no mirrored copies)."""
+    _, held = split_indices(ds)
+    split = ds.cycles["split"].to_numpy()
+    return {s: held[split[held] == s] for s in sorted(set(split[held])) if s not in NOT_TEST}
+
+
+@torch.no_grad()
+def reconstruct_cvae(model, chi: np.ndarray, beta: np.ndarray, batch: int = 64) -> np.ndarray:
+    """chi_hat (B, N, C) of chi (B, N, C) on bodies beta (B, n_beta), with z = mu."""
+    out = [model(torch.as_tensor(chi[i:i + batch]), torch.as_tensor(beta[i:i + batch]), sample=False)["chi"]
+           for i in range(0, len(chi), batch)]
+    return torch.cat(out).numpy()
+
+
+class PCABaseline:
+    """PCA on [chi (flattened), beta] of training cycles (module docstring)."""
+
+    def __init__(self, chi: np.ndarray, beta: np.ndarray, latent: int):
+        data = self._stack(chi, beta)
+        self.requested = latent + beta.shape[1]
+        self.rank_cap = len(data) - 1  # centred data of n rows spans at most n - 1 directions
+        self.n_components = min(self.requested, self.rank_cap, data.shape[1])
+        self.pca = PCA(n_components=self.n_components, svd_solver="full").fit(data)
+        self.shape = chi.shape[1:]
+
+    @staticmethod
+    def _stack(chi, beta) -> np.ndarray:
+        return np.concatenate([chi.reshape(len(chi), -1), beta], axis=1).astype(np.float64)
+
+    def reconstruct(self, chi: np.ndarray, beta: np.ndarray) -> np.ndarray:
+        """chi_hat (B, N, C): [chi, beta] projected on the components and rebuilt (beta_hat dropped)."""
+        back = self.pca.inverse_transform(self.pca.transform(self._stack(chi, beta)))
+        return back[:, :-beta.shape[1]].reshape((len(chi),) + self.shape).astype(np.float32)
+
+
+def vertex_errors(mesher, chi: np.ndarray, chi_hat: np.ndarray, beta: np.ndarray, batch: int = 4) -> np.ndarray:
+    """Mean vertex error (B,) in mm of each reconstructed cycle: distances between corresponding
+    vertices of the meshes of chi and chi_hat (B, N, C) on bodies beta, averaged over vertices and frames."""
+    return vertex_errors_many(mesher, chi, {"": chi_hat}, beta, batch)[""]
+
+
+@torch.no_grad()
+def vertex_errors_many(mesher, chi: np.ndarray, chi_hats: dict, beta: np.ndarray, batch: int = 4) -> dict:
+    """:func:`vertex_errors` of several reconstructions (name -> chi_hat) of the same cycles,
+    meshing the truth once per batch: {name: (B,) mm}."""
+    out = {name: [] for name in chi_hats}
+    for i in range(0, len(chi), batch):
+        b = torch.as_tensor(beta[i:i + batch])
+        truth = mesher(torch.as_tensor(chi[i:i + batch]), b, vertex_major=True)
+        for name, chi_hat in chi_hats.items():
+            pred = mesher(torch.as_tensor(chi_hat[i:i + batch]), b, vertex_major=True)
+            out[name].append(1000 * (pred - truth).norm(dim=-1).mean(dim=(1, 2)).double())
+    return {name: torch.cat(v).numpy() if v else np.zeros(0) for name, v in out.items()}
+
+
+def error_table(errors: dict[tuple[str, str], np.ndarray]) -> pd.DataFrame:
+    """One row per (model, test set): n, mean, median, q1, q3 of the per-sequence errors (mm)."""
+    rows = [dict(model=m, test_set=t, n=len(e), mean=np.mean(e), median=np.median(e),
+                 q1=np.percentile(e, 25), q3=np.percentile(e, 75)) for (m, t), e in errors.items()]
+    return pd.DataFrame(rows).round({"mean": 2, "median": 2, "q1": 2, "q3": 2})
+
+
+def boxplot_errors(ax, errors: dict[str, np.ndarray], title: str = "", xlabel: str = ""):
+    """Tukey box plots (box: quartiles, line: median, whiskers: 1.5 IQR, points beyond) per label."""
+    labels = list(errors)
+    ax.boxplot([errors[k] for k in labels], whis=1.5)
+    ax.set_xticks(range(1, len(labels) + 1), labels)
+    ax.set_ylabel("mean vertex error per sequence (mm)")
+    ax.set_xlabel(xlabel)
+    ax.set_title(title)
+    return ax
+
+
+def load_checkpoints(ds, paths: dict) -> dict:
+    """CVAE models by name from checkpoint files (name -> path); warns when one was trained on
+    other data than ``ds`` holds (then retrain: ``python -m data_prep train-cvae``)."""
+    import warnings
+
+    from mocapviz.training.cvae4d import data_fingerprint, load_cvae
+
+    here, models = data_fingerprint(ds), {}
+    for name, path in paths.items():
+        models[name], meta = load_cvae(path)
+        if meta["dataset"].get("fingerprint") != here:
+            warnings.warn(f"{name} was trained on other data (dataset {meta['dataset'].get('hash')}) than it is "
+                          f"evaluated on ({ds.meta.get('hash')}): retrain it (python -m data_prep train-cvae)")
+    return models
+
+
+def reconstruction_errors(ds, models: dict, body=None, pca_latent: int | None = None,
+                          progress: bool = False) -> dict[tuple[str, str], np.ndarray]:
+    """Per-sequence mean vertex errors (mm) of PCA ("pca") and of each CVAE (name -> model) on
+    each test set: {(model, test set): errors}. PCA's latent size is ``pca_latent`` (default:
+    that of the first model) + dim(beta), capped by the training rank (:class:`PCABaseline`)."""
+    from tqdm.auto import tqdm
+
+    from mocapviz.bodies.anny_model import body_model
+    from mocapviz.bodies.torch_mesh import ChiMesher
+
+    mesher = ChiMesher(body or body_model(), ds.gamma_scale)
+    latent = pca_latent or next(iter(models.values())).cfg.latent
+    train_idx, _ = split_indices(ds)
+    pca = PCABaseline(ds.chi[train_idx], ds.beta[train_idx], latent)
+    recon = {"pca": pca.reconstruct}
+    recon.update({n: (lambda chi, beta, m=m: reconstruct_cvae(m, chi, beta)) for n, m in models.items()})
+    errors = {}
+    for t, idx in tqdm(test_sets(ds).items(), desc="reconstruction errors", disable=not progress):
+        chi_hats = {name: fn(ds.chi[idx], ds.beta[idx]) for name, fn in recon.items()}
+        for name, err in vertex_errors_many(mesher, ds.chi[idx], chi_hats, ds.beta[idx]).items():
+            errors[(name, t)] = err
+    return errors

@@ -1,0 +1,192 @@
+"""The 4D motion CVAE: model wiring, losses, checkpoints, training, PCA baseline and the metric."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+
+from mocapviz.models.cvae4d import CVAE4D, CVAE4DConfig, kl_divergence
+from mocapviz.models.protocol import build_model, model_class
+from mocapviz.training.cvae4d import (
+    CVAE_CONFIGS,
+    CVAETrainConfig,
+    load_cvae,
+    save_cvae,
+    split_indices,
+    task_losses,
+    train,
+    with_overrides,
+)
+
+SMALL = CVAE4DConfig(n_frames=5, n_chi=10, n_beta=6, latent=4, hidden=(16, 8))
+
+
+def test_registered_and_rebuilt_from_json():
+    assert model_class("cvae4d") is CVAE4D
+    m = build_model("cvae4d", SMALL.to_json())
+    assert m.cfg == SMALL and CVAE4DConfig.from_json(SMALL.to_json()) == SMALL
+
+
+def test_encoder_ignores_beta_decoder_uses_it():
+    torch.manual_seed(0)
+    m = CVAE4D(SMALL).eval()
+    chi = torch.randn(3, 5, 10)
+    b1, b2 = torch.rand(3, 6), torch.rand(3, 6)
+    o1, o2 = m(chi, b1), m(chi, b2)
+    assert m.encoder[0].in_features == 50  # chi only
+    torch.testing.assert_close(o1["mu"], o2["mu"])
+    assert not torch.allclose(o1["chi"], o2["chi"])
+    assert o1["chi"].shape == (3, 5, 10) and o1["mu"].shape == (3, 4)
+    torch.testing.assert_close(o1["z"], o1["mu"])  # eval mode: z = mu
+    m.train()
+    assert not torch.allclose(m(chi, b1)["z"], o1["mu"])  # training: sampled
+    assert all(isinstance(a, torch.nn.ReLU) for a in m.decoder[1::2])
+    assert m.shared_layer is m.decoder[-3].weight  # the last hidden layer, not the output layer
+
+
+def test_kl_closed_form():
+    mu = torch.tensor([[0.5, -1.0]])
+    logvar = torch.tensor([[0.0, np.log(4.0)]])
+    expected = 0.5 * (0.25 + 1 - 0 - 1) + 0.5 * (1.0 + 4.0 - np.log(4.0) - 1)
+    assert float(kl_divergence(mu, logvar)) == pytest.approx(expected, rel=1e-6)
+    q = torch.distributions.Normal(mu, torch.exp(0.5 * logvar))
+    ref = torch.distributions.kl_divergence(q, torch.distributions.Normal(0.0, 1.0)).sum()
+    assert float(kl_divergence(mu, logvar)) == pytest.approx(float(ref), rel=1e-6)
+
+
+def test_phase1_losses_are_squared_l2_per_cycle():
+    chi = torch.zeros(2, 3, 6 * 2 + 4)
+    hat = chi.clone()
+    hat[0, :, 0] = 1.0   # pose: 3 frames x 1 -> 3 for cycle 0
+    hat[1, 1, 12] = 2.0  # translation: 4 for cycle 1
+    hat[:, :, -1] = 0.5  # time: 3 x 0.25 per cycle
+    pose, trans, time = task_losses(1, hat, chi, None)
+    assert float(pose) == pytest.approx(1.5) and float(trans) == pytest.approx(2.0)
+    assert float(time) == pytest.approx(0.75)
+
+
+def test_checkpoint_round_trip(tmp_path):
+    torch.manual_seed(0)
+    m = CVAE4D(SMALL).eval()
+    meta = dict(train_config=CVAETrainConfig().to_json(), dataset={"fingerprint": "x"})
+    chi, beta = torch.randn(2, 5, 10), torch.rand(2, 6)
+    m32, meta32 = load_cvae(save_cvae(tmp_path / "a.safetensors", m, meta))
+    torch.testing.assert_close(m32(chi, beta)["chi"], m(chi, beta)["chi"], rtol=0, atol=0)
+    assert meta32["dataset"] == {"fingerprint": "x"} and meta32["train_config"]["phase"] == 1
+    m16, _ = load_cvae(save_cvae(tmp_path / "b.safetensors", m, meta, half=True))
+    torch.testing.assert_close(m16(chi, beta)["chi"], m(chi, beta)["chi"], rtol=0, atol=5e-3)
+
+
+def test_configs():
+    assert CVAE_CONFIGS["phase1"].lr == 1e-3 and CVAE_CONFIGS["phase1"].batch_size == 256
+    assert CVAE_CONFIGS["phase2"].lr == 1e-4 and CVAE_CONFIGS["phase2"].batch_size == 16
+    assert CVAE_CONFIGS["phase1"].kl_weight == CVAE_CONFIGS["phase2"].kl_weight == 0.01
+    assert CVAE_CONFIGS["phase1"].latent == 64
+    assert with_overrides(CVAE_CONFIGS["phase1"], latent=8, epochs=None).latent == 8
+    with pytest.raises(ValueError):
+        CVAETrainConfig(phase=3)
+
+
+# ---------------------------------------------------------------------- on real cycles
+@pytest.fixture(scope="module")
+def ds(data_dir):
+    from data_prep.body4d_dataset import Body4DConfig, build_dataset
+    return build_dataset(Body4DConfig.quick(), data_dir, progress=False)
+
+
+def test_both_phases_reduce_their_losses(ds):
+    cfg = CVAETrainConfig(phase=1, epochs=60, latent=8, hidden=(16, 16), eval_every=1000)
+    model, rows = train(ds, cfg, progress=False)
+    assert rows[-1]["pose"] < 0.7 * rows[0]["pose"] and rows[-1]["trans"] < 0.7 * rows[0]["trans"]
+    assert sum(rows[-1][f"w_{t}"] for t in ("pose", "trans", "time")) == pytest.approx(3.0, rel=1e-4)
+    assert any(r.get("held_pose") for r in rows)  # the held-out losses were logged (last epoch)
+    cfg2 = CVAETrainConfig(phase=2, epochs=4, batch_size=4, lr=1e-3, latent=8, hidden=(16, 16),
+                           vertex_subset=64, eval_every=1000)
+    model2, rows2 = train(ds, cfg2, init=model, progress=False)
+    # GradNorm restarts in phase 2 (a row averages the epoch's 2 steps: 1 at the first, one Adam step later)
+    assert max(abs(rows[-1][f"w_{t}"] - 1) for t in ("pose", "trans", "time")) > 0.1
+    assert rows2[0]["w_spatial"] == pytest.approx(1.0, abs=0.02) and rows2[0]["w_time"] == pytest.approx(1.0, abs=0.02)
+    assert rows2[-1]["spatial"] < rows2[0]["spatial"]
+    assert not torch.equal(model2.shared_layer, model.shared_layer)  # trained a copy, init untouched
+
+
+def test_split_indices_leave_mirrored_out_of_tests(ds):
+    from mocapviz.tasks.cvae4d_eval import test_sets
+    cyc = ds.cycles.copy()
+    cyc.loc[cyc.index[:2], "split"] = "test_b"
+    cyc.loc[cyc.index[1], "mirrored"] = True
+    fake = type(ds)(ds.chi, ds.beta, cyc, ds.subjects, ds.clips, ds.meta)
+    train_idx, held = split_indices(fake)
+    assert set(train_idx) == set(np.flatnonzero(cyc["split"] == "train"))
+    assert 1 not in held and 0 in held
+    sets = test_sets(fake)
+    assert list(sets["test_b"]) == [0] and "train" not in sets
+
+
+def test_pca_baseline_and_vertex_errors(ds):
+    from mocapviz.bodies.anny_model import body_model
+    from mocapviz.bodies.torch_mesh import ChiMesher
+    from mocapviz.tasks.cvae4d_eval import PCABaseline, error_table, vertex_errors
+
+    train_idx, _ = split_indices(ds)
+    pca = PCABaseline(ds.chi[train_idx], ds.beta[train_idx], latent=64)
+    assert pca.n_components == len(train_idx) - 1 < 64 + 6  # capped by the training rank
+    rec = pca.reconstruct(ds.chi[train_idx], ds.beta[train_idx])
+    np.testing.assert_allclose(rec, ds.chi[train_idx], atol=1e-4)  # every training cycle is in the span
+
+    mesher = ChiMesher(body_model(), ds.gamma_scale)
+    i = train_idx[:2]
+    shifted = ds.chi[i].copy()
+    n_theta = shifted.shape[-1] - 4
+    shifted[..., n_theta] += 0.02 / ds.gamma_scale[0]  # every frame 2 cm along x: every vertex moves 20 mm
+    err = vertex_errors(mesher, ds.chi[i], shifted, ds.beta[i])
+    np.testing.assert_allclose(err, 20.0, rtol=1e-3)
+    assert np.all(vertex_errors(mesher, ds.chi[i], ds.chi[i], ds.beta[i]) == 0)
+
+    t = error_table({("m", "s"): np.array([1.0, 2.0, 3.0, 4.0, 10.0])})
+    row = t.iloc[0]
+    assert (row.n, row["mean"], row["median"], row.q1, row.q3) == (5, 4.0, 3.0, 2.0, 4.0)
+    assert isinstance(t, pd.DataFrame)
+
+
+# ---------------------------------------------------------------------- committed checkpoints
+COMMITTED = ("cvae4d_phase1", "cvae4d_phase2")
+
+
+@pytest.mark.parametrize("name", COMMITTED)
+def test_committed_checkpoint_loads_through_the_zoo(name):
+    from data_prep.zoo import ZOO_DIR
+    from mocapviz.zoo import load_cvae4d
+
+    path = ZOO_DIR / f"{name}.safetensors"
+    assert path.stat().st_size < 5e6
+    model, meta = load_cvae4d(name, ZOO_DIR)
+    assert isinstance(model, CVAE4D) and not model.training
+    assert model.cfg.latent == meta["train_config"]["latent"] == 64
+    assert int(meta["phase"]) == meta["train_config"]["phase"] == int(name[-1])
+    assert meta["command"].startswith("python -m data_prep train-cvae --phase")
+    if name == "cvae4d_phase2":
+        assert meta["init"] == "cvae4d_phase1"
+
+
+def test_committed_table_matches_the_committed_models(data_dir):
+    """results/cvae4d_reconstruction.csv is what the committed phase-2 model and PCA give today
+    (when the dataset is the one they were trained on)."""
+    from data_prep.body4d_dataset import Body4DConfig, build_dataset
+    from data_prep.sources import REPO_ROOT
+    from data_prep.zoo import ZOO_DIR
+    from mocapviz.tasks.cvae4d_eval import load_checkpoints, reconstruction_errors
+    from mocapviz.training.cvae4d import data_fingerprint
+
+    ds = build_dataset(Body4DConfig(), data_dir, progress=False)
+    _, meta = load_cvae(ZOO_DIR / "cvae4d_phase2.safetensors")
+    if meta["dataset"]["fingerprint"] != data_fingerprint(ds):
+        pytest.skip("the dataset changed since the committed models were trained: retrain them")
+    table = pd.read_csv(REPO_ROOT / "results" / "cvae4d_reconstruction.csv").set_index(["model", "test_set"])
+    models = load_checkpoints(ds, {"cvae4d_phase2": ZOO_DIR / "cvae4d_phase2.safetensors"})
+    for key, err in reconstruction_errors(ds, models).items():
+        assert table.loc[key, "n"] == len(err)
+        assert table.loc[key, "mean"] == pytest.approx(err.mean(), abs=0.01)
+        assert table.loc[key, "median"] == pytest.approx(np.median(err), abs=0.01)
