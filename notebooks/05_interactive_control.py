@@ -15,7 +15,7 @@
 
 # %% tags=["parameters"]
 QUICK = True            # quick: a 10 s scripted session (CI); full: 30 s and the live control
-MODEL = "ccnet_v4_adam"  # a committed CCNet trained on dataset v4 (21 motion types)
+MODEL = "ccnet_default"  # the committed CCNet, trained on dataset v4 (21 motion types)
 FIG_DIR = "../figures"
 
 # %% [markdown]
@@ -167,7 +167,7 @@ if not QUICK:
 # ## 5 · Against the paper
 #
 # The paper shows interactive control in its video (1 m 32 s - 1 m 51 s) and Fig. 8, without
-# numbers. With `ccnet_v4_adam` the keys act as asked on average: over the five locomotion test
+# numbers. With `ccnet_default` the keys act as asked on average: over the five locomotion test
 # seeds of `tests/test_control.py`, holding left for 2 s turns the path ~0.9 rad more to the left
 # than holding right, and three "up" presses make it ~1 m/s faster; a type key blends the label
 # as the paper says. The gap: that model is not yet a good generator (issue 9: 8 of 10 test seeds

@@ -74,20 +74,21 @@ fig_dir.mkdir(parents=True, exist_ok=True)
 # 60 fps). For each chosen test clip, its first second seeds each model, and the question puts
 # the **next seconds of the real clip** against the same stretch **generated from that seed**:
 # same body, same motion type, same starting pose. Two committed models play "CCNet" and "a
-# second model": `ccnet_default` and `ccnet_v4_adam` (models/README.md). With two models every
+# second model": `ccnet_default` and `ccnet_v3_rmsprop` (models/README.md). With two models every
 # clip also gives a model-against-model pair, so the three pairs of a clip form a triad that the
 # intransitivity rule can check.
 #
-# **The committed models mostly freeze** (issue 9: on most seeds the pose stops moving within
-# seconds while the root glides), so this kit is a demonstration of the tool, not material for a
-# real study: a real study needs a model that moves. The activity (mean local joint speed) and the
+# **The committed models often freeze** (issue 9: `ccnet_v3_rmsprop` on every seed, `ccnet_default`
+# on half of the locomotion test seeds: the pose stops moving within seconds while the root
+# glides), so this kit is a demonstration of the tool, not material for a real study: a real
+# study needs a model that moves. The activity (mean local joint speed) and the
 # pose-level freezing share (of 1 s windows) of every clip are printed below.
 
 # %%
 SECONDS, FPS = 2.5, (10 if QUICK else 30)
 ds = build_dataset(DatasetConfig.quick() if QUICK else DatasetConfig(), progress=False)
 models = {"ccnet_default": zoo.load("ccnet_default")[:2],
-          "ccnet_v4_adam": load_checkpoint(zoo.committed_path("ccnet_v4_adam"))[:2]}
+          "ccnet_v3_rmsprop": load_checkpoint(zoo.committed_path("ccnet_v3_rmsprop"))[:2]}
 n_types = min(m.cfg.n_types for m, _ in models.values())  # clips of types every model knows
 rows = usable_rows(ds, "test", SECONDS, n_types=n_types)
 if QUICK:  # one clip of each of two motion types

@@ -70,7 +70,10 @@ pd.set_option("display.width", 160)
 
 # %%
 body = body_model()
-ds = build_dataset(Body4DConfig())
+# quick: the small build (seconds; its test split is a few cycles). The committed checkpoints
+# were trained on the dataset as it was before issue 10's fixes (68 cycles; see models/README.md):
+# until they are retrained on today's dataset, the numbers here are those of stale models.
+ds = build_dataset(Body4DConfig.quick() if QUICK else Body4DConfig())
 sets = test_sets(ds)
 train_idx, _ = split_indices(ds)
 print(f"{len(train_idx)} training cycles; test sets: { {k: len(v) for k, v in sets.items()} }")

@@ -18,7 +18,7 @@ from mocapviz.tasks.control import (
 
 WALK, JOG = MOTION_TYPES.index("walk"), MOTION_TYPES.index("jog")
 N_TYPES = len(MOTION_TYPES)
-CONTROL_MODEL = "ccnet_v4_adam"   # the committed model on dataset v4's 21 types
+CONTROL_MODEL = "ccnet_default"   # the committed model on dataset v4's 21 types
 
 
 def test_number_key_blends_the_label_over_20_frames():

@@ -102,7 +102,8 @@ def test_both_phases_reduce_their_losses(ds):
     assert rows[-1]["pose"] < 0.7 * rows[0]["pose"] and rows[-1]["trans"] < 0.7 * rows[0]["trans"]
     assert sum(rows[-1][f"w_{t}"] for t in ("pose", "trans", "time")) == pytest.approx(3.0, rel=1e-4)
     assert any(r.get("held_pose") for r in rows)  # the held-out losses were logged (last epoch)
-    cfg2 = CVAETrainConfig(phase=2, epochs=4, batch_size=4, lr=1e-3, latent=8, hidden=(16, 16),
+    n_train = int((ds.cycles.split == "train").sum())
+    cfg2 = CVAETrainConfig(phase=2, epochs=4, batch_size=-(-n_train // 2), lr=1e-3, latent=8, hidden=(16, 16),
                            vertex_subset=64, eval_every=1000)
     model2, rows2 = train(ds, cfg2, init=model, progress=False)
     # GradNorm restarts in phase 2 (a row averages the epoch's 2 steps: 1 at the first, one Adam step later)
