@@ -94,9 +94,9 @@ def test_numpy_and_torch_steppers_agree(committed):
                                        atol=2e-5)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 9: the committed ccnet_default freezes its pose within seconds "
-                   "(pose-level freezing share 1.0 over seconds 30-60 on all 10 bench seeds); remove this "
-                   "mark with a model that moves")
+@pytest.mark.xfail(strict=True, reason="issue 9: ccnet_default (dataset v4, 90% Bandai) keeps Bandai seeds "
+                   "moving but not the held-out HDM05 subject's jog nor CMU 91's walk (bench_generation: the "
+                   "HDM05 seeds freeze); remove this mark with a model that moves on them")
 @pytest.mark.parametrize("clip", ["HDM_tr_jogLeftCircle4StepsRstart_014_120", "91_02"])
 def test_generated_motion_keeps_moving(ds, committed, clip):
     """10 s free-running (the network's own c^d) from a 1 s seed: the held-out subject jogging
