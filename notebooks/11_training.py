@@ -78,8 +78,9 @@ pd.set_option("display.width", 160)
 # %% [markdown]
 # ## The data and its representation
 #
-# The dataset of notebook 10 (every subject; the checkpoints were trained on it). Training uses
-# the cycles whose `split` is `train`; every other split is a test set (mirrored copies left out).
+# The dataset of notebook 10 (quick mode: its small build). The committed checkpoints were trained
+# on the dataset as it was before issue 10's fixes and are to be retrained. Training uses the
+# cycles whose `split` is `train`; every other split is a test set (mirrored copies left out).
 
 # %%
 body = body_model()
