@@ -26,9 +26,10 @@ class CCNetConfig:
     # issue 9). False for checkpoints saved before the option existed.
     residual: bool = False
     # residual_ranges: the mean adds x_t only on these [start, stop) channel ranges of the
-    # continuous part. Dataset v4's best (issue 9): the rotations and positions residual, the
-    # angular and linear velocities and the root block (speed, turn rate, height) absolute: with
-    # every channel residual the root height random-walked to -23x..+37x the seed's in 60 s.
+    # continuous part. Tried in issue 9 (dataset v4): with every channel residual the root height
+    # random-walked to -23x..+37x the seed's in 60 s; with the rotations and positions residual and
+    # the velocities and root block absolute, generation never froze and kept its height, but
+    # tumbled through impossible poses (6-26x the real pose distance). Off by default.
     residual_ranges: tuple[tuple[int, int], ...] = ()
 
     def __post_init__(self):
