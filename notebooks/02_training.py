@@ -57,6 +57,7 @@ from mocapviz.tasks.generation_quality import (
     SEED_FRAMES,
     generation_quality,
     locomotion_seeds,
+    moves_like_real,
     pose_bank,
     pose_distance,
     real_pose_distance,
@@ -295,10 +296,9 @@ for mode, q in quality.items():
 print(pd.concat({mode: pd.DataFrame(q["per_clip"]).T[["type", *QUALITY_KEYS]] for mode, q in quality.items()},
                 axis=1).round(2))
 for mode, q in quality.items():
-    c = pd.DataFrame(q["per_clip"]).T
-    ok = (c.freezing_share == 0) & c.activity_ratio.between(0.5, 2) & (c.jitter_ratio <= 3) & (c.pose_distance_ratio <= 3)
-    print(f"{mode}: {int(ok.sum())} of {len(c)} seeds keep moving like the real clips (not frozen, activity 0.5-2x, "
-          f"jitter <= 3x, pose distance <= 3x): {', '.join(c.index[ok]) or 'none'}")
+    ok = [clip for clip, c in q["per_clip"].items() if moves_like_real(c)]
+    print(f"{mode}: {len(ok)} of {len(q['per_clip'])} seeds keep moving like the real clips (not frozen, activity "
+          f"0.5-2x, jitter <= 3x, pose distance <= 3x): {', '.join(ok) or 'none'}")
 
 # %% [markdown]
 # The pose speed over time (mean local joint speed per frame) of two of these seeds, mean and

@@ -3,7 +3,7 @@ repeatable motion from the test split, one per entry of LOCOMOTION_SEEDS."""
 
 import pytest
 
-from mocapviz.tasks.generation_quality import LOCOMOTION_SEEDS, SEED_FRAMES, locomotion_seeds
+from mocapviz.tasks.generation_quality import LOCOMOTION_SEEDS, SEED_FRAMES, locomotion_seeds, moves_like_real
 
 
 @pytest.fixture(scope="module")
@@ -24,3 +24,11 @@ def test_locomotion_seeds_are_distinct_test_clips_of_the_named_kinds(ds):
     assert clips.description.iloc[1].startswith("walk-turn-") and clips.description.iloc[3].startswith("jog")
     # the held-out HDM05 subject supplies what only HDM05 has
     assert set(clips.subject[clips.type.isin(["sneak", "hop"])]) == {"tr"}
+
+
+def test_moves_like_real_by_hand():
+    walk = dict(freezing_share=0.0, activity_ratio=1.0, jitter_ratio=1.0, pose_distance_ratio=1.0)
+    assert moves_like_real(walk)
+    for key, bad in (("freezing_share", 0.1), ("activity_ratio", 0.4), ("activity_ratio", 2.1),
+                     ("jitter_ratio", 3.5), ("pose_distance_ratio", 6.0)):
+        assert not moves_like_real({**walk, key: bad}), key

@@ -81,6 +81,14 @@ def real_reference(ds, motion_type: str) -> tuple[float, float]:
 SEED_FRAMES = 48
 
 
+def moves_like_real(clip: dict) -> bool:
+    """Issue 9's bar for one seed's quality (a ``per_clip`` entry of :func:`generation_quality`):
+    never frozen, activity 0.5-2x and jitter at most 3x the real clips', and poses no further
+    than 3x the held-out real clips' from the training poses."""
+    return bool(clip["freezing_share"] == 0 and 0.5 <= clip["activity_ratio"] <= 2
+                and clip["jitter_ratio"] <= 3 and clip["pose_distance_ratio"] <= 3)
+
+
 def pose_bank(ds, every: int = 8) -> metrics.PoseBank:
     """The training clips' poses (every ``every``-th frame) as a :class:`~mocapviz.metrics.PoseBank`."""
     poses = []
