@@ -14,7 +14,7 @@
 # ---
 
 # %% tags=["parameters"]
-QUICK = True  # quick: the committed checkpoints (models/zoo/cvae4d_phase{1,2}); full: train the paper's schedule
+QUICK = True  # quick: short runs on the quick dataset (seconds); full: train the paper's schedule
 FIG_DIR = "../figures"
 
 # %% [markdown]
@@ -60,7 +60,6 @@ import torch
 from IPython.display import Image, display
 
 from data_prep.body4d_dataset import Body4DConfig, build_dataset
-from data_prep.zoo import ZOO_DIR, load_cvae4d
 from mocapviz.bodies import body_model
 from mocapviz.bodies.representation import split_chi
 from mocapviz.bodies.torch_mesh import ChiMesher, chi_times
@@ -78,15 +77,12 @@ pd.set_option("display.width", 160)
 # %% [markdown]
 # ## The data and its representation
 #
-# The dataset of notebook 10 (quick mode: its small build). The committed checkpoints were trained
-# on the dataset as it was before issue 10's fixes and are to be retrained. Training uses the
-# cycles whose `split` is `train`; every other split is a test set (mirrored copies left out).
+# The dataset of notebook 10 (quick mode: its small build). Training uses the cycles whose
+# `split` is `train`; every other split is a test set (mirrored copies left out).
 
 # %%
 body = body_model()
-# quick: the small build (seconds; its test split is a few cycles). The committed checkpoints
-# were trained on the dataset as it was before issue 10's fixes (68 cycles; see models/README.md):
-# until they are retrained on today's dataset, the numbers here are those of stale models.
+# quick: the small build (seconds; its test split is a few cycles)
 ds = build_dataset(Body4DConfig.quick() if QUICK else Body4DConfig())
 train_idx, held_idx = split_indices(ds)
 sets = test_sets(ds)
@@ -111,25 +107,19 @@ fig.tight_layout()
 save_figure(fig, fig_dir / "cvae4d_fig_representation.png")
 
 # %% [markdown]
-# ## The models: committed checkpoints (quick) or the paper's schedule (full)
+# ## The models: short runs (quick) or the paper's schedule (full)
 #
-# Quick mode loads `models/zoo/cvae4d_phase1` and `cvae4d_phase2`, trained by
-# `python -m data_prep train-cvae --phase 1 --export` and `--phase 2 --export` (one CPU thread,
-# a few minutes each; `models/README.md` has the numbers). Full mode trains the paper's schedule
-# (5000 + 200 epochs, wider layers): meant for a GPU.
+# Quick mode trains `CVAE_CONFIGS["quick_phase1"]` and `["quick_phase2"]` here (300 + 3 epochs on
+# the quick dataset: a demonstration of the two phases, not a result). The CPU-scale runs are
+# `python -m data_prep train-cvae --phase 1 --export` and `--phase 2 --export`; their checkpoints
+# (over 3 MiB) stay out of git. Full mode trains the paper's schedule (5000 + 200 epochs, wider
+# layers): meant for a GPU.
 
 # %%
-if QUICK:
-    phase1, meta1 = load_cvae4d("cvae4d_phase1")
-    phase2, meta2 = load_cvae4d("cvae4d_phase2")
-    log1 = pd.read_csv(ZOO_DIR / "cvae4d_phase1_losses.csv")
-    log2 = pd.read_csv(ZOO_DIR / "cvae4d_phase2_losses.csv")
-    cfg1, cfg2 = (meta1["train_config"], meta2["train_config"])
-else:
-    cfg1, cfg2 = CVAE_CONFIGS["paper_phase1"], CVAE_CONFIGS["paper_phase2"]
-    phase1, rows1 = train(ds, cfg1, body=body)
-    phase2, rows2 = train(ds, cfg2, init=phase1, body=body)
-    log1, log2 = pd.DataFrame(rows1), pd.DataFrame(rows2)
+cfg1, cfg2 = (CVAE_CONFIGS[f"{'quick' if QUICK else 'paper'}_phase{k}"] for k in (1, 2))
+phase1, rows1 = train(ds, cfg1, body=body, progress=False)
+phase2, rows2 = train(ds, cfg2, init=phase1, body=body, progress=False)
+log1, log2 = pd.DataFrame(rows1), pd.DataFrame(rows2)
 print(phase2)
 print(f"{count_parameters(phase2):,} parameters; latent {phase2.cfg.latent}, hidden {phase2.cfg.hidden}")
 print("phase 1:", cfg1, "\nphase 2:", cfg2)

@@ -152,42 +152,14 @@ def test_pca_baseline_and_vertex_errors(ds):
     assert isinstance(t, pd.DataFrame)
 
 
-# ---------------------------------------------------------------------- committed checkpoints
-COMMITTED = ("cvae4d_phase1", "cvae4d_phase2")
-
-
-@pytest.mark.parametrize("name", COMMITTED)
-def test_committed_checkpoint_loads_through_the_zoo(name):
-    from data_prep.zoo import ZOO_DIR
+def test_a_saved_model_loads_by_name_through_the_zoo(tmp_path):
+    """The 4D CVAE checkpoints are too large to commit (> 3 MiB); a saved one loads by name."""
     from mocapviz.zoo import load_cvae4d
 
-    path = ZOO_DIR / f"{name}.safetensors"
-    assert path.stat().st_size < 5e6
-    model, meta = load_cvae4d(name, ZOO_DIR)
-    assert isinstance(model, CVAE4D) and not model.training
-    assert model.cfg.latent == meta["train_config"]["latent"] == 64
-    assert int(meta["phase"]) == meta["train_config"]["phase"] == int(name[-1])
-    assert meta["command"].startswith("python -m data_prep train-cvae --phase")
-    if name == "cvae4d_phase2":
-        assert meta["init"] == "cvae4d_phase1"
-
-
-def test_committed_table_matches_the_committed_models(data_dir):
-    """results/cvae4d_reconstruction.csv is what the committed phase-2 model and PCA give today
-    (when the dataset is the one they were trained on)."""
-    from data_prep.body4d_dataset import Body4DConfig, build_dataset
-    from data_prep.sources import REPO_ROOT
-    from data_prep.zoo import ZOO_DIR
-    from mocapviz.tasks.cvae4d_eval import load_checkpoints, reconstruction_errors
-    from mocapviz.training.cvae4d import data_fingerprint
-
-    ds = build_dataset(Body4DConfig(), data_dir, progress=False)
-    _, meta = load_cvae(ZOO_DIR / "cvae4d_phase2.safetensors")
-    if meta["dataset"]["fingerprint"] != data_fingerprint(ds):
-        pytest.skip("the dataset changed since the committed models were trained: retrain them")
-    table = pd.read_csv(REPO_ROOT / "results" / "cvae4d_reconstruction.csv").set_index(["model", "test_set"])
-    models = load_checkpoints(ds, {"cvae4d_phase2": ZOO_DIR / "cvae4d_phase2.safetensors"})
-    for key, err in reconstruction_errors(ds, models).items():
-        assert table.loc[key, "n"] == len(err)
-        assert table.loc[key, "mean"] == pytest.approx(err.mean(), abs=0.01)
-        assert table.loc[key, "median"] == pytest.approx(np.median(err), abs=0.01)
+    torch.manual_seed(0)
+    m = CVAE4D(SMALL).eval()
+    save_cvae(tmp_path / "cvae4d_tiny.safetensors", m, dict(train_config=CVAETrainConfig().to_json(), phase=1))
+    model, meta = load_cvae4d("cvae4d_tiny", tmp_path)
+    assert isinstance(model, CVAE4D) and not model.training and meta["train_config"]["phase"] == 1
+    chi, beta = torch.randn(2, 5, 10), torch.rand(2, 6)
+    torch.testing.assert_close(model(chi, beta)["chi"], m(chi, beta)["chi"], rtol=0, atol=0)

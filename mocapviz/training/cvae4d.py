@@ -84,8 +84,11 @@ class CVAETrainConfig:
 # ~70 ms of CPU, a phase-2 step of 16 cycles on a 1024-vertex subset ~0.3-0.5 s; the epochs below
 # keep each committed run within a few CPU minutes (on our shared 2-core machine, 3-6x that in
 # wall time). The subset keeps phase 2 cheap; evaluation always uses every vertex.
-# "paper_*": the paper's schedule with wider layers, for a GPU.
+# "paper_*": the paper's schedule with wider layers, for a GPU. "quick_*": what the notebooks train
+# in quick mode on the quick dataset (seconds; the checkpoints are too large to commit).
 CVAE_CONFIGS = {
+    "quick_phase1": CVAETrainConfig(phase=1, epochs=300, batch_size=256, lr=1e-3, eval_every=100),
+    "quick_phase2": CVAETrainConfig(phase=2, epochs=3, batch_size=16, lr=1e-4, vertex_subset=1024, eval_every=3),
     "phase1": CVAETrainConfig(phase=1, epochs=3000, batch_size=256, lr=1e-3, eval_every=100),
     "phase2": CVAETrainConfig(phase=2, epochs=100, batch_size=16, lr=1e-4, vertex_subset=1024, eval_every=10),
     "paper_phase1": CVAETrainConfig(phase=1, epochs=5000, batch_size=256, lr=1e-3, hidden=(512, 256),
