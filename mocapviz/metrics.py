@@ -109,6 +109,13 @@ def freezing_share(local: np.ndarray, fps: float, seconds: float = 1.0, threshol
     return float((w < threshold).mean())
 
 
+def root_speed(root_positions: np.ndarray, fps: float) -> float:
+    """Mean horizontal speed (m/s) of root positions (F, 3), Y up: a body that glides faster or
+    slower than its gait carries it shows here, which the root-relative pose metrics cannot see."""
+    ground = np.asarray(root_positions, dtype=np.float64)[:, [0, 2]]
+    return float(np.linalg.norm(np.diff(ground, axis=0), axis=-1).mean() * fps)
+
+
 def ratio(value: float, real_values) -> float:
     """``value`` over the mean of the same metric on real clips (e.g. of the same motion type)."""
     return float(value / np.mean(real_values))

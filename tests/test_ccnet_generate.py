@@ -45,13 +45,14 @@ def seed_inputs(ds, clip, n_seed=40):
     return row, a["x"][None, :n_seed], a["traj"][None, :n_seed], a["skel"][None], a["type_index"]
 
 
-@pytest.mark.parametrize("residual", ["none", "all", "rotations"])
+@pytest.mark.parametrize("residual", ["none", "all", "rotations", "leaky"])
 @pytest.mark.parametrize("backend", ["numpy", "torch"])
 def test_incremental_generation_equals_full_recompute(ds, committed, backend, residual):
     model, norm, _ = committed
     if residual != "none":  # the same weights as a residual network: the generator adds x_t to the mean
         rot = ds.layout.x_blocks["rot"]
-        kw = dict(residual=True) if residual == "all" else dict(residual_ranges=((rot.start, rot.stop),))
+        kw = dict(all=dict(residual=True), leaky=dict(residual=True, residual_gain=0.9),
+                  rotations=dict(residual_ranges=((rot.start, rot.stop),)))[residual]
         model = CCNet(replace(model.cfg, **kw)).eval()
         model.load_state_dict(committed[0].state_dict())
     _, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120")

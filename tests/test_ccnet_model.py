@@ -131,6 +131,18 @@ def test_residual_ranges_add_the_input_frame_on_those_channels_only():
         small_cfg(residual_ranges=((0, n + 1),))
 
 
+def test_residual_gain_scales_the_added_input_frame():
+    plain, leaky = net(small_cfg()), CCNet(small_cfg(residual=True, residual_gain=0.9)).eval()
+    leaky.load_state_dict(plain.state_dict())
+    x, skel, traj, types = inputs(small_cfg())
+    with torch.no_grad():
+        a, b = plain(x, skel, traj, types)["mean"], leaky(x, skel, traj, types)["mean"]
+    assert torch.allclose(b, a + 0.9 * x[..., :small_cfg().n_continuous])
+    for bad in (0.0, 1.5):
+        with pytest.raises(ValueError, match="residual_gain"):
+            small_cfg(residual=True, residual_gain=bad)
+
+
 def test_fed_back_inputs_are_the_models_own_means():
     from mocapviz.training.trainer import fed_back
     cfg = small_cfg(residual=True)

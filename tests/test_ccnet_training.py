@@ -174,3 +174,16 @@ def test_torchrun_two_processes_gloo(ds, tmp_path):
     assert res.returncode == 0, res.stderr[-3000:]
     assert len(rows(tmp_path)) == 4  # rank 0 alone wrote the log
     assert load_checkpoint(tmp_path / "checkpoint.safetensors")[2]["step"] == 4
+
+
+def test_offset_noise_is_one_offset_per_window_on_the_continuous_channels():
+    from mocapviz.training.trainer import offset_noise
+    torch.manual_seed(0)
+    x = torch.zeros(64, 30, 10)
+    o = offset_noise(x, 0.3, n_continuous=8)
+    assert torch.equal(o[:, :, 8:], torch.zeros(64, 30, 2))      # contact labels untouched
+    assert torch.equal(o, o[:, :1].expand_as(o))                   # constant over the window
+    per_window = o[:, 0, :8].std(dim=1)
+    assert 0.0 < per_window.min() and per_window.max() < 0.3 * 1.8  # scale ~ U(0, 0.3) per window
+    assert per_window.std() > 0.03                                  # ... and it varies across windows
+    assert torch.equal(offset_noise(x, 0.0, 8), torch.zeros_like(x))

@@ -30,6 +30,12 @@ def test_jitter_by_hand():
     assert metrics.jitter(local, 10.0) == pytest.approx((0.3 + 0.6) / 2 * 100)
 
 
+def test_root_speed_by_hand():
+    # 0.3 m along X then 0.4 m along Z per frame at 10 fps (height changes do not count): 3 and 4 m/s
+    root = np.array([[0.0, 1.0, 0.0], [0.3, 0.9, 0.0], [0.3, 1.2, 0.4]])
+    assert metrics.root_speed(root, 10.0) == pytest.approx(3.5)
+
+
 def test_freezing_share_by_hand():
     # 2 s at 10 fps, one joint: first second still, second second moving 0.1 m/frame (1 m/s)
     x = np.concatenate([np.zeros(10), 0.1 * np.arange(1, 12)])

@@ -74,7 +74,7 @@ class CCNet(nn.Module):
         """The config of ``train_cfg`` (size preset, dilations, dropout, residual) for a feature layout."""
         return make_config(train_cfg.size, n_x=layout.n_x, n_skel=layout.n_skel, n_traj=layout.n_traj,
                            n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout,
-                           residual=train_cfg.residual,
+                           residual=train_cfg.residual, residual_gain=train_cfg.residual_gain,
                            residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
                                                  for b in train_cfg.residual_blocks))
 
@@ -104,7 +104,7 @@ class CCNet(nn.Module):
         if self.cfg.residual_slices:
             add = torch.zeros_like(out["mean"])
             for sl in self.cfg.residual_slices:
-                add[..., sl] = x[..., sl]
+                add[..., sl] = self.cfg.residual_gain * x[..., sl]
             out["mean"] = out["mean"] + add
         return out
 

@@ -31,6 +31,11 @@ class CCNetConfig:
     # the velocities and root block absolute, generation never froze and kept its height, but
     # tumbled through impossible poses (6-26x the real pose distance). Off by default.
     residual_ranges: tuple[tuple[int, int], ...] = ()
+    # residual_gain g: the mean on the residual channels is g * x_t + decoder output. g = 1 is a
+    # pure integrator (a drift is carried on for ever); g < 1 leaks: the decoder has to supply
+    # (1 - g) x_t itself, from the features it has learnt, so a drift it cannot represent decays
+    # by g per frame while the motion it can represent is kept.
+    residual_gain: float = 1.0
 
     def __post_init__(self):
         if self.kernel_size != 2:
@@ -39,6 +44,8 @@ class CCNetConfig:
             raise ValueError("dilations must be positive")
         object.__setattr__(self, "dilations", tuple(int(d) for d in self.dilations))
         object.__setattr__(self, "residual_ranges", tuple((int(a), int(b)) for a, b in self.residual_ranges))
+        if not 0.0 < self.residual_gain <= 1.0:
+            raise ValueError(f"residual_gain must lie in (0, 1], got {self.residual_gain}")
         if any(not 0 <= a < b <= self.n_continuous for a, b in self.residual_ranges):
             raise ValueError(f"residual_ranges must lie in [0, {self.n_continuous}): {self.residual_ranges}")
 
@@ -94,6 +101,7 @@ def receptive_field(dilations, kernel_size: int = 2) -> int:
 SIZES = {
     "quick": dict(channels=32, skip_channels=32),
     "default": dict(channels=48, skip_channels=64),
+    "wide": dict(channels=96, skip_channels=128),
     "paper": dict(channels=256, skip_channels=256),
 }
 

@@ -150,8 +150,8 @@ class Generator:
                 c_next = pred_traj
             raw = self._step(x_t, np.ascontiguousarray(c_next))
             mean = raw[:, self.parts["mean"]]  # a view: the residual channels get x_t added in place
-            for sl in self.cfg.residual_slices:  # there the decoder gave the change from x_t
-                mean[:, sl] += x_t[:, sl]
+            for sl in self.cfg.residual_slices:  # there the decoder gave the change from g x_t
+                mean[:, sl] += self.cfg.residual_gain * x_t[:, sl]
             if self.keep_outputs:
                 self.raw_outputs.append(raw.copy())
             if t + 1 >= s:

@@ -10,6 +10,8 @@ c^d), measured over the second half of the generation with :mod:`mocapviz.metric
   (:class:`mocapviz.metrics.PoseBank`), median over frames, as a ratio to the same for the
   held-out real clips of the type: a body tumbling through impossible poses at a walk's pace
   has walk-like activity and jitter, but not walk-like poses;
+- root speed: the mean horizontal root speed as a ratio to the real clips' of the type (a body
+  that glides at three times its gait's pace is not walking, whatever its pose does);
 - root height as a ratio to the seed's mean root height: a body that drifts (sinks under the
   floor, flies off) shows here even when its activity and jitter look plausible.
 """
@@ -22,7 +24,8 @@ from mocapviz import metrics
 from mocapviz.features.motion_types import one_hot
 from mocapviz.tasks.generate import Generator
 
-QUALITY_KEYS = ("freezing_share", "activity_ratio", "jitter_ratio", "pose_distance_ratio", "root_height_ratio")
+QUALITY_KEYS = ("freezing_share", "activity_ratio", "jitter_ratio", "pose_distance_ratio", "root_speed_ratio",
+                "root_height_ratio")
 
 
 # The seeds of issue 9's "Done when": locomotion and repeatable motion, where a real performer
@@ -40,12 +43,13 @@ def bench_seeds(ds, n: int = 10) -> list[int]:
     return [int(i) for i in test.assign(o=order).sort_values(["o", "type"]).index[:n]]
 
 
-def locomotion_seeds(ds, min_frames: int = 48) -> list[int]:
-    """One test-split clip row per entry of :data:`LOCOMOTION_SEEDS` the dataset holds (the
-    first in dataset order with at least ``min_frames`` frames; the held-out HDM05 subject
-    supplies jog, sneak and hop, Bandai the rest)."""
+def locomotion_seeds(ds, min_frames: int = 48, split: str = "test") -> list[int]:
+    """One clip row of ``split`` per entry of :data:`LOCOMOTION_SEEDS` the dataset holds (the
+    first in dataset order with at least ``min_frames`` frames; in the test split the held-out
+    HDM05 subject supplies jog, sneak and hop, Bandai the rest). Choosing between trained models
+    uses the "val" seeds, so that the test seeds stay a report."""
     c = ds.clips
-    ok = (c.split == "test") & ((c.stop - c.start) >= min_frames)
+    ok = (c.split == split) & ((c.stop - c.start) >= min_frames)
     rows = []
     for motion_type, description in LOCOMOTION_SEEDS:
         hit = ok & (c.type == motion_type)
@@ -64,16 +68,18 @@ def seed_batch(ds, rows, n_seed: int, n_types: int):
             np.stack([a["skel"] for a in arrs]), one_hot([a["type_index"] for a in arrs], n_types))
 
 
-def real_reference(ds, motion_type: str) -> tuple[float, float]:
-    """Mean activity (m/s) and jitter (m/s^2) of the dataset's clips of ``motion_type`` (> 1 s)."""
+def real_reference(ds, motion_type: str) -> tuple[float, float, float]:
+    """Mean activity (m/s), jitter (m/s^2) and root speed (m/s) of the dataset's clips of
+    ``motion_type`` (> 1 s)."""
     fps = ds.config.fps
-    act, jit = [], []
+    act, jit, speed = [], [], []
     for i in np.flatnonzero((ds.clips.type == motion_type).values & ((ds.clips.stop - ds.clips.start) > fps).values):
         m = ds.clip_motion(int(i))
         local = metrics.local_positions(m.positions(), m.skeleton)
         act.append(metrics.activity(local, fps))
         jit.append(metrics.jitter(local, fps))
-    return float(np.mean(act)), float(np.mean(jit))
+        speed.append(metrics.root_speed(m.root_positions, fps))
+    return float(np.mean(act)), float(np.mean(jit)), float(np.mean(speed))
 
 
 # 48 seed frames: more than the default network's receptive field (41), and the held-out subject's
@@ -135,11 +141,12 @@ def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None,
         local = metrics.local_positions(half.positions(), half.skeleton)
         if r["type"] not in refs:
             refs[r["type"]] = (*real_reference(ds, r["type"]), real_pose_distance(ds, bank, r["type"]))
-        act, jit, dist = refs[r["type"]]
+        act, jit, speed, dist = refs[r["type"]]
         per_clip[r["clip"]] = dict(
             type=r["type"], freezing_share=metrics.freezing_share(local, m.fps),
             activity_ratio=metrics.activity(local, m.fps) / act, jitter_ratio=metrics.jitter(local, m.fps) / jit,
             pose_distance_ratio=pose_distance(half, bank) / dist,
+            root_speed_ratio=metrics.root_speed(half.root_positions, m.fps) / speed,
             root_height_ratio=float(half.root_positions[:, 1].mean() / m.root_positions[:n_seed, 1].mean()))
         motions[r["clip"]] = m
     summary = {key: [round(float(f(v)), 3) for f in (np.min, np.median, np.max)]

@@ -25,11 +25,13 @@ class TrainConfig:
     lr: float = 1e-4
     lr_final: float = 1e-6
     noise_std: float = 0.03
+    offset_noise_std: float = 0.0   # per-window constant input offset, std up to this (see trainer)
     lambdas: tuple[float, float, float] = LAMBDAS
     dilations: tuple[int, ...] = (2,) * 20
     dropout: float = 0.5
     residual: bool = False          # the network predicts x_{t+1} - x_t (CCNetConfig.residual)
     residual_blocks: tuple[str, ...] = ()  # ... only on these blocks of x (FeatureLayout.x_blocks)
+    residual_gain: float = 1.0      # ... the mean adds this times x_t (CCNetConfig.residual_gain)
     feedback_passes: int = 0        # inputs of the window's second half: the model's own means, k passes
     optimizer: str = "rmsprop"      # "rmsprop" (the paper's) or "adam" (OPTIMIZERS)
     seed: int = 0
@@ -75,6 +77,13 @@ TRAIN_CONFIGS = {
     "quick": TrainConfig(size="quick", steps=1200, batch_size=16, lr=1e-3, lr_final=1e-5, optimizer="adam",
                          eval_every=200, checkpoint_every=200),
     "default": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam"),
+    # issue 9's longer runs (about an hour each on one shared core): the default network for
+    # 5000 steps, and one twice as wide (C = 96, skip 128) for 2800, both trained on their own
+    # predictions for the second half of each window (feedback_passes = 4)
+    "long": TrainConfig(size="default", steps=5000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
+                        feedback_passes=4),
+    "wide": TrainConfig(size="wide", steps=2800, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
+                        feedback_passes=4),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }

@@ -63,6 +63,23 @@ def fed_back(net, b: dict, input_names, passes: int) -> torch.Tensor:
     return x
 
 
+def offset_noise(x: torch.Tensor, std: float, n_continuous: int) -> torch.Tensor:
+    """A constant offset per window on the continuous channels of x (B, T, n_x): N(0, s^2) per
+    channel with s ~ U(0, std) per window (``TrainConfig.offset_noise_std``).
+
+    I.i.d. per-frame noise is averaged away over the receptive field; a pose that has drifted in
+    generation is off by the same amount on every recent frame. With an offset on the inputs and
+    clean targets the network learns to pull such a pose back (most random offsets leave the
+    low-dimensional set of real poses, and the rotation, position and velocity blocks then
+    disagree), rather than to carry it on.
+    """
+    b = x.shape[0]
+    scale = std * torch.rand(b, 1, 1)
+    out = torch.zeros_like(x)
+    out[..., :n_continuous] = scale * torch.randn(b, 1, n_continuous)
+    return out
+
+
 def lr_at(cfg: TrainConfig, step: int) -> float:
     return cfg.lr * (cfg.lr_final / cfg.lr) ** (step / max(1, cfg.steps))
 
@@ -139,6 +156,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         torch.manual_seed(int(rng.integers(2 ** 62)))
         b = data.batch(data.train[rng.integers(len(data.train), size=per_rank)])
         b["x"] = b["x"] + cfg.noise_std * torch.randn_like(b["x"])  # input noise (the targets stay clean)
+        if cfg.offset_noise_std:
+            b["x"] = b["x"] + offset_noise(b["x"], cfg.offset_noise_std, model.cfg.n_continuous)
         if cfg.feedback_passes:
             b["x"] = fed_back(net, b, model.input_names, cfg.feedback_passes)
         out = net(**{k: b[k] for k in model.input_names})
