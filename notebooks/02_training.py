@@ -280,6 +280,9 @@ for label, g in generated.items():
 # * **pose distance**: each pose's distance to the nearest training pose (`metrics.PoseBank`), as a
 #   ratio to the held-out real clips of the type: a body tumbling through impossible poses at a
 #   walk's pace has walk-like activity and jitter but not walk-like poses;
+# * **root speed**: the root's mean ground speed as a ratio to the real clips' of the type: a walk
+#   that glides along at three times a walker's pace is not a walk, whatever its legs do
+#   (`moves_like_real` also passes a speed within 0.1 m/s of the real one, for motion in place);
 # * root height relative to the seed's (a drifting body shows there).
 #
 # Note what the data allow: HDM05's sneak and hop clips are single strides and hops (1-2 s) and
@@ -298,7 +301,7 @@ print(pd.concat({mode: pd.DataFrame(q["per_clip"]).T[["type", *QUALITY_KEYS]] fo
 for mode, q in quality.items():
     ok = [clip for clip, c in q["per_clip"].items() if moves_like_real(c)]
     print(f"{mode}: {len(ok)} of {len(q['per_clip'])} seeds keep moving like the real clips (not frozen, activity "
-          f"0.5-2x, jitter <= 3x, pose distance <= 3x): {', '.join(ok) or 'none'}")
+          f"0.5-2x, jitter <= 3x, pose distance <= 3x, root speed 0.5-2x): {', '.join(ok) or 'none'}")
 
 # %% [markdown]
 # The pose speed over time (mean local joint speed per frame) of two of these seeds, mean and

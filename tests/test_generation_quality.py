@@ -27,8 +27,13 @@ def test_locomotion_seeds_are_distinct_test_clips_of_the_named_kinds(ds):
 
 
 def test_moves_like_real_by_hand():
-    walk = dict(freezing_share=0.0, activity_ratio=1.0, jitter_ratio=1.0, pose_distance_ratio=1.0)
+    walk = dict(freezing_share=0.0, activity_ratio=1.0, jitter_ratio=1.0, pose_distance_ratio=1.0,
+                root_speed_ratio=1.0, root_speed_difference=0.0)
     assert moves_like_real(walk)
     for key, bad in (("freezing_share", 0.1), ("activity_ratio", 0.4), ("activity_ratio", 2.1),
                      ("jitter_ratio", 3.5), ("pose_distance_ratio", 6.0)):
         assert not moves_like_real({**walk, key: bad}), key
+    # a walk (1.1 m/s) gliding at 3 m/s fails; waving in place (0.03 m/s) at 0.01 m/s passes
+    assert not moves_like_real({**walk, "root_speed_ratio": 2.7, "root_speed_difference": 1.9})
+    assert not moves_like_real({**walk, "root_speed_ratio": 0.3, "root_speed_difference": -0.8})
+    assert moves_like_real({**walk, "root_speed_ratio": 0.33, "root_speed_difference": -0.02})
