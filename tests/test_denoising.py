@@ -1,0 +1,114 @@
+"""Denoising and completion (CCNet §4.3.1): alignment of the teacher-forced prediction, noise
+units, the error, the dropped segments of completion, on hand-made cases."""
+
+import numpy as np
+import torch
+
+from mocapviz.features.ccnet import FeatureLayout, Normaliser
+from mocapviz.models.baseline import BaselineConfig, BaselineModel
+from mocapviz.tasks import denoising as dn
+
+J = 25
+LAYOUT = FeatureLayout(J, 21)
+N = LAYOUT.n_continuous
+
+
+class CopyLast(BaselineModel):
+    """Predicts x_{t+1} = x_t: its "denoised" frame t+1 is the input frame t."""
+
+    def __init__(self):
+        super().__init__()
+        self.cfg = BaselineConfig(n_x=LAYOUT.n_x, n_skel=LAYOUT.n_skel, n_types=21)
+        self.dummy = torch.nn.Parameter(torch.zeros(1))
+
+    def run(self, inp, state=None):
+        raw = torch.zeros(inp.shape[:2] + (self.cfg.n_out,))
+        raw[..., self.cfg.output_slices["mean"]] = inp[..., :N]
+        return raw, state
+
+
+def identity_norm(n=N, std=0.5):
+    # (std 1.0 would mark every channel constant: Normaliser.constant_channels)
+    return Normaliser(np.zeros(n, np.float32), np.full(n, std, np.float32), np.zeros(LAYOUT.n_skel, np.float32),
+                      np.ones(LAYOUT.n_skel, np.float32), np.zeros(12, np.float32), np.ones(12, np.float32))
+
+
+def clip(t=50, seed=0):
+    rng = np.random.default_rng(seed)
+    return dict(x=rng.standard_normal((t, LAYOUT.n_x)).astype(np.float32),
+                traj=rng.standard_normal((t, 12)).astype(np.float32),
+                skel=np.zeros(LAYOUT.n_skel, np.float32), type_index=0)
+
+
+def test_teacher_forced_alignment_prediction_of_t_plus_1_uses_frames_up_to_t():
+    c = clip()
+    rep = dn.Repairer(CopyLast(), identity_norm())
+    out = rep.repair(c["x"], c["skel"], c["traj"], 0)   # normalised in, normalised out
+    assert out.shape == (49, N)
+    np.testing.assert_allclose(out, c["x"][:-1, :N], atol=1e-6)   # frame t+1 <- input frame t
+
+
+def test_noise_on_continuous_channels_only_with_the_asked_std():
+    x = np.zeros((4000, LAYOUT.n_x), np.float32)
+    x[:, N:] = 1.0
+    noisy = dn.add_noise(x, 0.05, N, np.random.default_rng(0))
+    assert np.all(noisy[:, N:] == 1.0)
+    assert abs(noisy[:, :N].std() - 0.05) < 0.001
+
+
+def test_frame_error_is_euclidean_over_varying_channels():
+    pred = np.array([[3.0, 4.0, 100.0]])
+    assert dn.frame_errors(pred, np.zeros((1, 3)), np.array([True, True, False]))[0] == 5.0
+
+
+def test_error_of_doing_nothing_on_a_still_clip_is_noise_times_sqrt_channels():
+    # a still clip: copying the last (noisy) frame leaves the noise of that frame, norm ~ std sqrt(n)
+    c = clip(t=400)
+    c["x"][:] = c["x"][0]
+    errs = dn.denoising_errors({"copy": dn.Repairer(CopyLast(), identity_norm())}, [c], [0.1], seed=3)
+    assert abs(errs[(0.1, "copy")].mean() - 0.1 * np.sqrt(N)) < 0.05
+    assert errs[(0.1, "copy")].shape == (399,)
+    # the noisy input itself scores the same on a still clip
+    assert abs(errs[(0.1, "noisy_input")].mean() - 0.1 * np.sqrt(N)) < 0.05
+    table = dn.summary_table(errs, "D")
+    assert list(table.columns) == ["dataset", "noise_std", "model", "mean", "std", "n"]
+    assert set(table.model) == {"copy", "noisy_input"}
+
+
+def test_noise_and_error_are_in_the_reference_units():
+    # a model whose normaliser has std 2 sees the noise in its units as half, but the error is
+    # reported back in the reference's: copying the last frame of a still clip scores the same
+    c = clip(t=300)
+    c["x"][:] = 0.0
+    ref = identity_norm()
+    a = dn.denoising_errors({"m": dn.Repairer(CopyLast(), identity_norm(std=2.0), reference=ref)}, [c], [0.1])
+    b = dn.denoising_errors({"m": dn.Repairer(CopyLast(), ref)}, [c], [0.1])
+    np.testing.assert_allclose(a[(0.1, "m")], b[(0.1, "m")], rtol=1e-5)
+
+
+def test_constant_channels_are_written_as_their_training_value():
+    norm = identity_norm()
+    norm.x_std[:10] = 1.0  # std exactly 1: constant in the training data
+    norm.x_std[10:] = 0.5
+    c = clip()
+    out = dn.Repairer(CopyLast(), norm).repair(norm.norm_x(c["x"]), c["skel"], c["traj"], 0)
+    assert np.all(out[:, :10] == 0.0) and np.any(out[:, 10:] != 0.0)
+
+
+def test_drop_segments_cover_the_share_in_runs_and_never_frame_zero():
+    m = dn.drop_segments(301, 0.3, 30, np.random.default_rng(1))
+    assert m.sum() == 90 and not m[0]
+    starts = np.flatnonzero(np.diff(m.astype(int)) == 1) + 1
+    assert len(starts) in (1, 2, 3)   # adjacent runs merge
+    assert all(m[s:s + 30].all() for s in starts)
+
+
+def test_zero_rotations_touches_only_the_leg_channels_on_the_frames():
+    names = [f"j{i}" for i in range(J)]
+    names[7:11] = dn.RIGHT_LEG
+    ch = dn.leg_channels(LAYOUT, names)
+    np.testing.assert_array_equal(ch, np.arange(21, 33))   # joints 7..10, 3 exp-map values each
+    x = np.ones((5, LAYOUT.n_x))
+    out = dn.zero_rotations(x, ch, [1, 3])
+    assert out[[1, 3]][:, ch].sum() == 0 and out[[0, 2, 4]][:, ch].sum() == 36
+    assert (out.sum() == x.sum() - 24) and x.sum() == 5 * LAYOUT.n_x
