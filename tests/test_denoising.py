@@ -112,3 +112,15 @@ def test_zero_rotations_touches_only_the_leg_channels_on_the_frames():
     out = dn.zero_rotations(x, ch, [1, 3])
     assert out[[1, 3]][:, ch].sum() == 0 and out[[0, 2, 4]][:, ch].sum() == 36
     assert (out.sum() == x.sum() - 24) and x.sum() == 5 * LAYOUT.n_x
+
+
+def test_error_shares_split_the_squared_error_by_block():
+    pred, clean = np.zeros((2, N)), np.zeros((2, N))
+    b = LAYOUT.x_blocks
+    pred[0, b["rot"].start] = 3.0            # 9 in rot
+    pred[1, b["vel"].start] = 1.0            # 1 in vel
+    pred[1, b["pos"].start] = 100.0          # not varying: ignored
+    varying = np.ones(N, bool)
+    varying[b["pos"].start] = False
+    shares = dn.error_shares(pred, clean, varying, LAYOUT)
+    assert shares == {"rot": 0.9, "angvel": 0.0, "pos": 0.0, "vel": 0.1, "root": 0.0}

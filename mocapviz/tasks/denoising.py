@@ -100,6 +100,14 @@ def denoising_errors(repairers: dict[str, Repairer], clips: list[dict], noise_st
     return {k: np.concatenate(v) for k, v in errs.items()}
 
 
+def error_shares(pred: np.ndarray, clean: np.ndarray, varying: np.ndarray, layout: FeatureLayout) -> dict[str, float]:
+    """Share of the summed squared error (over frames and the ``varying`` channels) that each
+    block of x holds (rot, angvel, pos, vel, root): where a Euclidean error comes from."""
+    sq = (np.asarray(pred) - np.asarray(clean)) ** 2 * varying
+    total = sq.sum()
+    return {k: float(sq[:, sl].sum() / total) for k, sl in layout.x_blocks.items() if sl.stop <= sq.shape[1]}
+
+
 def summary_table(errors: dict[tuple[float, str], np.ndarray], dataset: str) -> pd.DataFrame:
     """Rows (dataset, noise_std, model, mean, std, n) of per-frame errors (std with ddof 0)."""
     return pd.DataFrame([dict(dataset=dataset, noise_std=std, model=name, mean=float(e.mean()),
