@@ -101,6 +101,11 @@ for (dset, std), r in ours.iterrows():
 paper_ratio = (PAPER["CCNet"] / PAPER[["ERD-4LR", "DAE-LSTM"]].min(axis=1)).mean()
 our_ratio = (ours[MODEL] / ours[list(BASELINES)].min(axis=1)).mean()
 print(f"\nCCNet / best baseline, mean over rows: paper {paper_ratio:.2f}, ours {our_ratio:.2f}")
+for m in (MODEL, *BASELINES):
+    change = (ours[m].xs(0.1, level="noise_std") - ours[m].xs(0.0, level="noise_std")).abs().max()
+    noise = ours["noisy_input"].xs(0.1, level="noise_std").mean()
+    print(f"{m}: error change from noise 0 to 0.1: {change:.4f} (the noise itself: {noise:.3f}): its mean "
+          f"{'hardly reacts' if change < 0.1 * noise else 'reacts'} to noise in its input frames")
 
 # %% [markdown]
 # Which blocks of the frame vector hold the error (clean input, the D clips; share of the summed
