@@ -48,7 +48,7 @@ from data_prep.apps_tables import dataset, denoising_clips, denoising_table, loa
 from data_prep.sources import REPO_ROOT
 from mocapviz.features.ccnet import features_to_motion
 from mocapviz.features.ccnet import FeatureLayout
-from mocapviz.tasks.denoising import Repairer, add_noise, complete_leg, error_shares
+from mocapviz.tasks.denoising import Repairer, add_noise, complete_leg, error_shares, sensitivity
 
 torch.set_num_threads(1)
 fig_dir = Path(FIG_DIR)
@@ -101,11 +101,11 @@ for (dset, std), r in ours.iterrows():
 paper_ratio = (PAPER["CCNet"] / PAPER[["ERD-4LR", "DAE-LSTM"]].min(axis=1)).mean()
 our_ratio = (ours[MODEL] / ours[list(BASELINES)].min(axis=1)).mean()
 print(f"\nCCNet / best baseline, mean over rows: paper {paper_ratio:.2f}, ours {our_ratio:.2f}")
+clips_d = denoising_clips(ds)["D"]
 for m in (MODEL, *BASELINES):
-    change = (ours[m].xs(0.1, level="noise_std") - ours[m].xs(0.0, level="noise_std")).abs().max()
-    noise = ours["noisy_input"].xs(0.1, level="noise_std").mean()
-    print(f"{m}: error change from noise 0 to 0.1: {change:.4f} (the noise itself: {noise:.3f}): its mean "
-          f"{'hardly reacts' if change < 0.1 * noise else 'reacts'} to noise in its input frames")
+    s = sensitivity(Repairer(*models[m], reference=models[MODEL][1]), clips_d, 0.1)
+    print(f"{m}: its repaired frames move by {s:.3f} x the size of input noise of std 0.1 "
+          f"(1 = copying the last input frame, 0 = ignoring the input)")
 
 # %% [markdown]
 # Which blocks of the frame vector hold the error (clean input, the D clips; share of the summed
@@ -115,25 +115,25 @@ for m in (MODEL, *BASELINES):
 ref = models[MODEL][1]
 varying = ~ref.constant_channels()
 layout = FeatureLayout(len(ds.joint_names), models[MODEL][0].cfg.n_types)
-clips = denoising_clips(ds)["D"]
 shares = {}
 for name, (m, n) in models.items():
     rep_m = Repairer(m, n, reference=ref)
-    pred = np.concatenate([rep_m.repair(ref.norm_x(c["x"]), c["skel"], c["traj"], c["type_index"]) for c in clips])
-    clean = np.concatenate([ref.norm_x(c["x"])[1:, :len(ref.x_mean)] for c in clips])
+    pred = np.concatenate([rep_m.repair(ref.norm_x(c["x"]), c["skel"], c["traj"], c["type_index"]) for c in clips_d])
+    clean = np.concatenate([ref.norm_x(c["x"])[1:, :len(ref.x_mean)] for c in clips_d])
     shares[name] = error_shares(pred, clean, varying, layout)
 pd.DataFrame(shares).round(3)
 
 # %% [markdown]
 # **Where the gap comes from.** Every model here *predicts* frame $t+1$ from the noisy past (the
 # paper's definition: the repaired frame never sees its own noisy version), so the error has a
-# floor, the one-frame prediction error on clean input, and the noise adds to it only through the
-# past frames; that is why the paper's errors hardly change with the noise std, and ours even
-# less: our floor (the noise-0 row) is far above the noise itself, so every model scores worse
-# than the noisy input, and the table above shows which blocks carry that error. Our models were
-# trained for minutes on one CPU core (models/README.md), not the paper's 2000 epochs on a GPU,
-# and on a dataset where one Bandai skeleton holds most of the frames; the printed ratio above
-# says how far our ordering is from the paper's. Our S-CMU clips are training clips, so that
+# floor, the one-frame prediction error on clean input (the noise-0 row), and the noise adds to it
+# only through the past frames; that is why the paper's errors hardly change with the noise std.
+# Where that floor is above the noise itself, a model scores worse than the noisy input (the lines
+# above say where, and how much each model's output reacts to its input at all); the table of
+# blocks says which channels carry the error. Our models were trained for minutes on one CPU core
+# (models/README.md), not the paper's 2000 epochs on a GPU, on a dataset where one Bandai skeleton
+# holds most of the frames; the printed ratio says how far our ordering is from the paper's. Our
+# S-CMU clips are training clips, so that
 # dataset is in-sample for every model.
 
 # %% [markdown]

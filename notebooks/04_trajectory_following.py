@@ -102,8 +102,8 @@ print(f"CCNet {m.loc[MODEL, 'mean_cm']:.1f} cm vs baselines {', '.join(f'{k} {v:
 
 # %% [markdown]
 # **Where the gap comes from.** The paper's CCNet trained for 2000 epochs on a GPU; ours for
-# minutes on one CPU core (models/README.md), and its mean output keeps moving only for some
-# seeds (issue 9): a character that slows down or freezes falls behind the per-frame target
+# minutes on one CPU core (models/README.md), and the committed model's mean output freezes for
+# some seeds (issue 9): a character that slows down or freezes falls behind the per-frame target
 # point, its $\mathbf c^d$ then points far ahead, and the distance grows (see `covered`). Our
 # baselines are small and briefly trained too, PFNN for a third of the other baselines' steps;
 # the paper's PFNN and ERD-4LR sizes are not known (its supplementary is not available).

@@ -124,3 +124,60 @@ def test_error_shares_split_the_squared_error_by_block():
     varying[b["pos"].start] = False
     shares = dn.error_shares(pred, clean, varying, LAYOUT)
     assert shares == {"rot": 0.9, "angvel": 0.0, "pos": 0.0, "vel": 0.1, "root": 0.0}
+
+
+def test_sensitivity_is_one_for_copying_and_zero_for_ignoring_the_input():
+    c = clip(t=300)
+    assert abs(dn.sensitivity(dn.Repairer(CopyLast(), identity_norm()), [c], 0.1) - 1.0) < 0.02
+
+    class Constant(CopyLast):
+        def run(self, inp, state=None):
+            return torch.ones(inp.shape[:2] + (self.cfg.n_out,)), state
+
+    assert dn.sensitivity(dn.Repairer(Constant(), identity_norm()), [c], 0.1) == 0.0
+
+
+def hand_skeleton():
+    """The 25 CCNet joints: hips and shoulders across X, legs down Y, the right foot's toe ahead in Z."""
+    from mocapviz.features.ccnet_joints import CCNET_25_PARENTS
+    from mocapviz.skeleton import CCNET_25_JOINTS, Skeleton
+    names = list(CCNET_25_JOINTS)
+    off = {n: (0.0, 0.1, 0.0) for n in names}
+    off.update({"Hips": (0.0, 0.0, 0.0), "LHipJoint": (0.1, 0.0, 0.0), "RHipJoint": (-0.1, 0.0, 0.0),
+                "LeftShoulder": (0.15, 0.0, 0.0), "RightShoulder": (-0.15, 0.0, 0.0),
+                **{f"{s}{j}": (0.0, -0.4, 0.0) for s in ("Left", "Right") for j in ("UpLeg", "Leg", "Foot")},
+                "LeftToeBase": (0.0, 0.0, 0.1), "RightToeBase": (0.0, 0.0, 0.1)})
+    parents = np.array([-1 if CCNET_25_PARENTS[n] is None else names.index(CCNET_25_PARENTS[n]) for n in names])
+    return Skeleton(tuple(names), parents, np.array([off[n] for n in names]))
+
+
+def test_leg_error_of_a_knee_bent_90_degrees_is_hand_computed():
+    sk = hand_skeleton()
+    x = np.zeros((3, LAYOUT.n_x))
+    x[:, LAYOUT.x_blocks["root"].start + 3] = 1.0     # root height
+    bent = x.copy()
+    k = LAYOUT.x_blocks["rot"].start + 3 * sk.index("RightLeg")
+    bent[1, k] = np.pi / 2                            # frame 1: the right knee turned 90 degrees about X
+    err = dn.leg_errors(bent, x, sk)
+    # knee -> foot (0, -0.4, 0) becomes (0, 0, +-0.4): the foot moves 0.4 sqrt 2; knee -> toe
+    # (0, -0.4, 0.1) becomes (0, -+0.1, +-0.4): 0.3 up and 0.5 along Z; hip and knee stay
+    foot, toe = 0.4 * np.sqrt(2), np.sqrt(0.3 ** 2 + 0.5 ** 2)
+    np.testing.assert_allclose(err, [0.0, 100 * (foot + toe) / 4, 0.0], atol=1e-6)
+    left = x.copy()
+    left[:, LAYOUT.x_blocks["rot"].start + 3 * sk.index("LeftLeg")] = 1.0
+    np.testing.assert_allclose(dn.leg_errors(left, x, sk), 0.0, atol=1e-9)   # only the right leg counts
+
+
+def test_complete_leg_with_a_copying_model_repeats_the_corrupted_frames():
+    sk = hand_skeleton()
+    rng = np.random.default_rng(0)
+    x = np.zeros((121, LAYOUT.n_x), np.float32)
+    x[:, LAYOUT.x_blocks["rot"]] = 0.2 * rng.standard_normal((121, 75))
+    c = dict(x=x, traj=np.zeros((121, 12), np.float32), skel=np.zeros(LAYOUT.n_skel, np.float32), type_index=0)
+    res = dn.complete_leg(dn.Repairer(CopyLast(), identity_norm()), c, sk, share=0.25, segment=10, seed=1)
+    assert res["dropped"].sum() == 30 and res["completed"].shape == (120, LAYOUT.n_x)
+    legs = dn.leg_channels(LAYOUT, list(sk.names))
+    d = np.flatnonzero(res["dropped"])
+    assert np.all(res["corrupted"][d][:, legs] == 0) and np.all(res["corrupted_error"][~res["dropped"]] == 0)
+    # copying the last input: completed frame t is corrupted frame t-1
+    np.testing.assert_allclose(res["completed"][1:, :N], res["corrupted"][:-1, :N], atol=1e-5)

@@ -108,6 +108,24 @@ def error_shares(pred: np.ndarray, clean: np.ndarray, varying: np.ndarray, layou
     return {k: float(sq[:, sl].sum() / total) for k, sl in layout.x_blocks.items() if sl.stop <= sq.shape[1]}
 
 
+def sensitivity(repairer: Repairer, clips: list[dict], std: float, seed: int = 0) -> float:
+    """How much a model's repaired frames move when noise of ``std`` is added to its input:
+    mean over frames of |pred(noisy) - pred(clean)| / mean of |noise| (reference units, varying
+    channels). 1 for a model that copies its last input; near 0 for one that ignores its input.
+    (The error's change says little: an output shift orthogonal to a large error adds only its
+    square.)"""
+    ref = repairer.ref
+    varying, n = ~ref.constant_channels(), len(ref.x_mean)
+    moved, noise = [], []
+    for c, clip in enumerate(clips):
+        clean = ref.norm_x(clip["x"])
+        noisy = add_noise(clean, std, n, np.random.default_rng([seed, c]))
+        a, b = (repairer.repair(x, clip["skel"], clip["traj"], clip["type_index"]) for x in (clean, noisy))
+        moved.append(frame_errors(b, a, varying))
+        noise.append(frame_errors(noisy[:, :n], clean[:, :n], varying))
+    return float(np.concatenate(moved).mean() / np.concatenate(noise).mean())
+
+
 def summary_table(errors: dict[tuple[float, str], np.ndarray], dataset: str) -> pd.DataFrame:
     """Rows (dataset, noise_std, model, mean, std, n) of per-frame errors (std with ddof 0)."""
     return pd.DataFrame([dict(dataset=dataset, noise_std=std, model=name, mean=float(e.mean()),
