@@ -123,7 +123,8 @@ fig, axes = plt.subplots(1, 3, figsize=(15, 5))
 pick = "s_curve"
 for ax, name in zip(axes, (MODEL, *BASELINES)):
     r = next(x for x in results if x.model == name and x.trajectory == pick)
-    top_view(ax, r, 0, f"{name}: {pick} from {ds.clips['clip'][r.rows[0]]}")
+    top_view(ax, r, 0, name)
+fig.suptitle(f"{pick}, seed {ds.clips['clip'][r.rows[0]]}")
 axes[0].legend()
 fig.tight_layout()
 fig.savefig(fig_dir / "ccnet_trajectory_fig6.png", dpi=90)
