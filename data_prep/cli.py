@@ -1,4 +1,4 @@
-"""``python -m data_prep {catalog,build,download,train,train-cvae}``: see ``--help`` of each subcommand."""
+"""``python -m data_prep {catalog,build,download,train,train-cvae,apps-tables}``: see ``--help`` of each subcommand."""
 
 from __future__ import annotations
 
@@ -59,6 +59,11 @@ def _train(args) -> int:
     return run(args)
 
 
+def _apps_tables(args) -> int:
+    from data_prep.apps_tables import run
+    return run(args)
+
+
 def _train_cvae(args) -> int:
     from data_prep.train_cvae import run
     return run(args)
@@ -96,6 +101,12 @@ def parser() -> argparse.ArgumentParser:
     t = sub.add_parser("train", help="train a model on the CCNet dataset (see data_prep/train.py)")
     add_arguments(t)
     t.set_defaults(func=_train)
+
+    from data_prep.apps_tables import add_arguments as add_apps_arguments
+    ap = sub.add_parser("apps-tables", help="CCNet Table 1 (denoising) and trajectory following against the "
+                        "baselines into results/ (see data_prep/apps_tables.py)")
+    add_apps_arguments(ap)
+    ap.set_defaults(func=_apps_tables)
 
     from data_prep.train_cvae import add_arguments as add_cvae_arguments
     v = sub.add_parser("train-cvae", help="train the 4D motion CVAE (phases 1, 2, ablations) or write its "

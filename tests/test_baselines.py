@@ -151,7 +151,7 @@ def test_dae_pretraining_learns_to_denoise_and_is_then_frozen(ds):
     assert all(torch.equal(v, m.state_dict()[k]) for k, v in before.items())
 
 
-@pytest.mark.parametrize("name", ["erd_quick", "dae_lstm_quick"])   # pfnn_quick: not trained yet (models/README.md)
+@pytest.mark.parametrize("name", ["erd_quick", "dae_lstm_quick", "pfnn_quick"])
 def test_committed_checkpoint_loads_by_name_and_learnt(name, ds):
     """Each committed baseline loads through the zoo, and its NLL of the next frame on held-out
     windows (teacher forced) is far below the same network's untrained."""

@@ -39,6 +39,11 @@ class BaselineConfig:
     n_out = CCNetConfig.n_out
 
     @property
+    def residual_slices(self) -> list[slice]:
+        """None: every baseline predicts the frame itself (the generator asks, as of CCNet)."""
+        return []
+
+    @property
     def n_in(self) -> int:
         """First-layer width: x_t, c^s, c^d_{t+1}, c^t."""
         return self.n_x + self.n_skel + self.n_traj + self.n_types
