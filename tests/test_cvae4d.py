@@ -113,17 +113,23 @@ def test_both_phases_reduce_their_losses(ds):
     assert not torch.equal(model2.shared_layer, model.shared_layer)  # trained a copy, init untouched
 
 
-def test_split_indices_leave_mirrored_out_of_tests(ds):
+def test_test_sets_follow_the_test_set_column_without_mirrored_copies():
+    from mocapviz.datasets.body4d import Body4DDataset
     from mocapviz.tasks.cvae4d_eval import test_sets
-    cyc = ds.cycles.copy()
-    cyc.loc[cyc.index[:2], "split"] = "test_b"
-    cyc.loc[cyc.index[1], "mirrored"] = True
-    fake = type(ds)(ds.chi, ds.beta, cyc, ds.subjects, ds.clips, ds.meta)
-    train_idx, held = split_indices(fake)
-    assert set(train_idx) == set(np.flatnonzero(cyc["split"] == "train"))
-    assert 1 not in held and 0 in held
-    sets = test_sets(fake)
-    assert list(sets["test_b"]) == [0] and "train" not in sets
+
+    cycles = pd.DataFrame(dict(
+        split=["train", "train", "test", "test", "test", "test", "test"],
+        test_set=["", "", "held_out_source", "held_out_subjects", "held_out_source", "held_out_takes",
+                  "held_out_subjects"],
+        mirrored=[False, True, False, False, True, False, False]))
+    ds = Body4DDataset(np.zeros((7, 2, 10), np.float32), np.zeros((7, 6), np.float32), cycles,
+                       pd.DataFrame(), pd.DataFrame())
+    train_idx, held = split_indices(ds)
+    assert list(train_idx) == [0, 1] and list(held) == [2, 3, 5, 6]  # mirrored training copies train
+    sets = test_sets(ds)
+    assert list(sets) == ["held_out_source", "held_out_subjects", "held_out_takes"]
+    assert list(sets["held_out_source"]) == [2]  # 4 is a mirrored copy
+    assert list(sets["held_out_subjects"]) == [3, 6] and list(sets["held_out_takes"]) == [5]
 
 
 def test_pca_baseline_and_vertex_errors(ds):

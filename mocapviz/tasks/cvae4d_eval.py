@@ -1,6 +1,7 @@
 """Reconstruction of held-out cycles by the 4D CVAE and the PCA baseline (4D motion paper §4.3-4.4).
 
-- test sets: one per value of the dataset's ``split`` column other than "train" and "val",
+- test sets: one per value of the dataset's ``test_set`` column (held-out source, held-out
+  subjects, held-out takes: :mod:`data_prep.body4d_splits`), over the held-out cycles only,
   mirrored copies left out (:func:`test_sets`);
 - a CVAE reconstructs chi with z = mu (no sampling) and the cycle's true beta;
 - the baseline is scikit-learn's PCA on the training cycles' [chi, beta] (flattened chi, beta
@@ -24,14 +25,12 @@ from sklearn.decomposition import PCA
 
 from mocapviz.training.cvae4d import split_indices
 
-NOT_TEST = ("train", "val")
-
-
 def test_sets(ds) -> dict[str, np.ndarray]:
-    """Cycle indices of each test set: split name -> indices (no mirrored copies)."""
+    """Cycle indices of each test set: ``test_set`` value -> indices of the held-out cycles
+    (``split`` not "train") carrying it, without mirrored copies."""
     _, held = split_indices(ds)
-    split = ds.cycles["split"].to_numpy()
-    return {s: held[split[held] == s] for s in sorted(set(split[held])) if s not in NOT_TEST}
+    test_set = ds.cycles["test_set"].fillna("").astype(str).to_numpy()
+    return {t: held[test_set[held] == t] for t in sorted(set(test_set[held])) if t}
 
 
 @torch.no_grad()
