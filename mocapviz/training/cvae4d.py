@@ -81,15 +81,17 @@ class CVAETrainConfig:
 
 # The paper trains 5000 epochs (phase 1) and 200 (phase 2) on 13 121 cycles with a GPU. Ours
 # train on the full body4d dataset (4,065 cycles, 3,656 of them training) on one CPU thread, in
-# under 20 CPU minutes for both phases (measured: a phase-1 epoch, 15 steps of 256 cycles, costs
-# ~1.4 CPU s; a phase-2 step of 16 cycles on a 1024-vertex subset ~0.16 CPU s, an epoch of 229
-# steps ~37 s): phase 1 400 epochs (~9.5 CPU min, 6,000 steps), phase 2 12 epochs (~7.5 CPU
-# min, 2,750 steps). The machine's two cores were shared with other training, hence so short.
+# about 13 CPU minutes for both phases (measured: a phase-1 epoch, 15 steps of 256 cycles, costs
+# ~1.3 CPU s; a phase-2 step of 16 cycles on a 1024-vertex subset ~0.16 CPU s, an epoch of 229
+# steps ~37 s): phase 1 400 epochs (~9 CPU min, 6,000 steps), phase 2 6 epochs (~4 CPU min,
+# 1,374 steps). The machine's two cores were shared with other training, hence so short.
 # The subset keeps phase 2 cheap; evaluation always uses every vertex.
 # "paper_*": the paper's schedule with wider layers (512, 256), for a GPU (checkpoints over 3 MiB).
+# "quick_phase1": notebook 12's ablation demonstration on the quick dataset (seconds per model).
 CVAE_CONFIGS = {
+    "quick_phase1": CVAETrainConfig(phase=1, epochs=300, batch_size=256, lr=1e-3, eval_every=100),
     "phase1": CVAETrainConfig(phase=1, epochs=400, batch_size=256, lr=1e-3, eval_every=50),
-    "phase2": CVAETrainConfig(phase=2, epochs=12, batch_size=16, lr=1e-4, vertex_subset=1024, eval_every=4),
+    "phase2": CVAETrainConfig(phase=2, epochs=6, batch_size=16, lr=1e-4, vertex_subset=1024, eval_every=2),
     "paper_phase1": CVAETrainConfig(phase=1, epochs=5000, batch_size=256, lr=1e-3, hidden=(512, 256),
                                     eval_every=250),
     "paper_phase2": CVAETrainConfig(phase=2, epochs=200, batch_size=16, lr=1e-4, hidden=(512, 256),
