@@ -53,7 +53,9 @@ class PCABaseline:
         self.requested = latent + beta.shape[1]
         self.rank_cap = len(data) - 1  # centred data of n rows spans at most n - 1 directions
         self.n_components = min(self.requested, self.rank_cap, data.shape[1])
-        self.pca = PCA(n_components=self.n_components, svd_solver="full").fit(data)
+        # sklearn picks a seeded randomized SVD for few components of a large set (the full SVD of
+        # 3,656 x 13,006 costs minutes of CPU), the exact one otherwise
+        self.pca = PCA(n_components=self.n_components, svd_solver="auto", random_state=0).fit(data)
         self.shape = chi.shape[1:]
 
     @staticmethod
