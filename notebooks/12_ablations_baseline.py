@@ -125,8 +125,8 @@ for t in sets:
 #   subjects are bodies and motion types with few or no training cycles of their kind; their
 #   sets are small (the `n` column), so their means move with a few cycles. The held-out Bandai
 #   takes (same actors and skeleton as training) are the set where the models are closest.
-# - **Phase 2** is 6 epochs at lr 1e-4 on a 1024-vertex subset: it moves the error by a few
-#   percent at most, in either direction.
+# - **Phase 2** is 6 epochs at lr 1e-4 on a 1024-vertex subset: it lowers the means by a few
+#   percent (printed above).
 
 # %% [markdown]
 # ## Fig. 3 and Fig. 4: latent dimension and KL weight (all test cycles together)
