@@ -127,8 +127,8 @@ print(f"{count_parameters(phase2):,} parameters; latent {phase2.cfg.latent}, hid
 for name, meta in (("phase 1", meta1), ("phase 2", meta2)):
     tc = meta["train_config"]
     print(f"{name}: {tc['epochs']} epochs, batch {tc['batch_size']}, lr {tc['lr']}, KL weight {tc['kl_weight']}, "
-          f"{float(meta['seconds']) / 60:.1f} min wall on {tc['threads']} thread(s) of a shared machine; {meta['dataset']['n_train']} training "
-          f"cycles of dataset {meta['dataset']['hash']}; `{meta['command']}`")
+          f"{float(meta['seconds']) / 60:.1f} min wall on {tc['threads']} thread(s) of a shared machine; "
+          f"{meta['dataset']['n_train']} training cycles of dataset {meta['dataset']['hash']}; `{meta['command']}`")
 print("this notebook's dataset is the one they were trained on:",
       data_fingerprint(ds) == meta1["dataset"]["fingerprint"])
 
