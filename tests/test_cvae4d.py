@@ -113,17 +113,38 @@ def test_both_phases_reduce_their_losses(ds):
     assert not torch.equal(model2.shared_layer, model.shared_layer)  # trained a copy, init untouched
 
 
-def test_split_indices_leave_mirrored_out_of_tests(ds):
+def test_test_sets_follow_the_test_set_column_without_mirrored_copies():
+    from mocapviz.datasets.body4d import Body4DDataset
     from mocapviz.tasks.cvae4d_eval import test_sets
-    cyc = ds.cycles.copy()
-    cyc.loc[cyc.index[:2], "split"] = "test_b"
-    cyc.loc[cyc.index[1], "mirrored"] = True
-    fake = type(ds)(ds.chi, ds.beta, cyc, ds.subjects, ds.clips, ds.meta)
-    train_idx, held = split_indices(fake)
-    assert set(train_idx) == set(np.flatnonzero(cyc["split"] == "train"))
-    assert 1 not in held and 0 in held
-    sets = test_sets(fake)
-    assert list(sets["test_b"]) == [0] and "train" not in sets
+
+    cycles = pd.DataFrame(dict(
+        split=["train", "train", "test", "test", "test", "test", "test"],
+        test_set=["", "", "held_out_source", "held_out_subjects", "held_out_source", "held_out_takes",
+                  "held_out_subjects"],
+        mirrored=[False, True, False, False, True, False, False]))
+    ds = Body4DDataset(np.zeros((7, 2, 10), np.float32), np.zeros((7, 6), np.float32), cycles,
+                       pd.DataFrame(), pd.DataFrame())
+    train_idx, held = split_indices(ds)
+    assert list(train_idx) == [0, 1] and list(held) == [2, 3, 5, 6]  # mirrored training copies train
+    sets = test_sets(ds)
+    assert list(sets) == ["held_out_source", "held_out_subjects", "held_out_takes"]
+    assert list(sets["held_out_source"]) == [2]  # 4 is a mirrored copy
+    assert list(sets["held_out_subjects"]) == [3, 6] and list(sets["held_out_takes"]) == [5]
+
+
+def test_on_scale_reexpresses_translations():
+    from mocapviz.datasets.body4d import Body4DDataset
+    from mocapviz.tasks.cvae4d_eval import on_scale
+
+    chi = np.zeros((1, 2, 10), np.float32)
+    chi[0, :, 6:9] = [0.5, -1.0, 0.25]  # Gamma (normalised) with n_theta = 6
+    chi[0, :, 9] = 0.3
+    ds = Body4DDataset(chi, np.zeros((1, 6), np.float32), pd.DataFrame(dict(split=["train"])), pd.DataFrame(),
+                       pd.DataFrame(), dict(gamma_scale=[2.0, 1.0, 4.0]))
+    out = on_scale(ds, [4.0, 0.5, 1.0])
+    np.testing.assert_allclose(out.chi[0, :, 6:9], [[0.25, -2.0, 1.0]] * 2)  # same metres: 1, -1, 1
+    np.testing.assert_array_equal(out.chi[..., [0, 9]], chi[..., [0, 9]])
+    assert out.gamma_scale.tolist() == [4.0, 0.5, 1.0] and ds.gamma_scale.tolist() == [2.0, 1.0, 4.0]
 
 
 def test_pca_baseline_and_vertex_errors(ds):
@@ -149,11 +170,12 @@ def test_pca_baseline_and_vertex_errors(ds):
     t = error_table({("m", "s"): np.array([1.0, 2.0, 3.0, 4.0, 10.0])})
     row = t.iloc[0]
     assert (row.n, row["mean"], row["median"], row.q1, row.q3) == (5, 4.0, 3.0, 2.0, 4.0)
+    assert (row.whislo, row.whishi) == (1.0, 4.0)  # 10 lies beyond q3 + 1.5 IQR = 7
     assert isinstance(t, pd.DataFrame)
 
 
 def test_a_saved_model_loads_by_name_through_the_zoo(tmp_path):
-    """The 4D CVAE checkpoints are too large to commit (> 3 MiB); a saved one loads by name."""
+    """A saved model loads by name from a given folder."""
     from mocapviz.zoo import load_cvae4d
 
     torch.manual_seed(0)
@@ -163,3 +185,36 @@ def test_a_saved_model_loads_by_name_through_the_zoo(tmp_path):
     assert isinstance(model, CVAE4D) and not model.training and meta["train_config"]["phase"] == 1
     chi, beta = torch.randn(2, 5, 10), torch.rand(2, 6)
     torch.testing.assert_close(model(chi, beta)["chi"], m(chi, beta)["chi"], rtol=0, atol=0)
+
+
+# ---------------------------------------------------------------------- committed files
+def test_committed_checkpoints_load_through_the_zoo_and_fit_in_git():
+    from data_prep.train_cvae import TABLE_MODELS
+    from data_prep.zoo import ZOO_DIR
+    from mocapviz.zoo import load_cvae4d
+
+    for phase, name in enumerate(TABLE_MODELS, start=1):
+        assert (ZOO_DIR / f"{name}.safetensors").stat().st_size < 3 * 2 ** 20
+        model, meta = load_cvae4d(name, ZOO_DIR)
+        assert isinstance(model, CVAE4D) and model.cfg.latent == 64 and model.cfg.n_beta == 6
+        assert meta["train_config"]["phase"] == phase and meta["dataset"]["n_train"] > 3000  # the full dataset
+        assert (ZOO_DIR / f"{name}_losses.csv").exists()
+
+
+def test_reconstruction_table_shape_and_current_with_the_checkpoints():
+    from data_prep.sources import REPO_ROOT
+    from data_prep.train_cvae import TABLE, TABLE_MODELS, checkpoint_id
+    from data_prep.zoo import ZOO_DIR
+
+    t = pd.read_csv(REPO_ROOT / TABLE, keep_default_na=False)
+    assert list(t.columns) == ["model", "test_set", "n", "mean", "median", "q1", "q3", "whislo", "whishi",
+                               "checkpoint"]
+    sets = ["held_out_source", "held_out_subjects", "held_out_takes"]
+    assert sorted(t.test_set.unique()) == sets and sorted(t.model.unique()) == sorted(["pca", *TABLE_MODELS])
+    assert len(t) == 3 * len(sets) and not t.duplicated(["model", "test_set"]).any()
+    assert (t.groupby("test_set").n.nunique() == 1).all() and (t.n > 0).all()  # every model on the same cycles
+    assert ((t.whislo <= t.q1) & (t.q1 <= t["median"]) & (t["median"] <= t.q3) & (t.q3 <= t.whishi)).all()
+    assert (t["mean"] > 0).all()
+    for name in TABLE_MODELS:  # made from the committed files (else: python -m data_prep train-cvae --table)
+        assert (t.loc[t.model == name, "checkpoint"] == checkpoint_id(ZOO_DIR / f"{name}.safetensors")).all()
+    assert (t.loc[t.model == "pca", "checkpoint"] == "").all()

@@ -1,6 +1,7 @@
 """Reconstruction of held-out cycles by the 4D CVAE and the PCA baseline (4D motion paper §4.3-4.4).
 
-- test sets: one per value of the dataset's ``split`` column other than "train" and "val",
+- test sets: one per value of the dataset's ``test_set`` column (held-out source, held-out
+  subjects, held-out takes: :mod:`data_prep.body4d_splits`), over the held-out cycles only,
   mirrored copies left out (:func:`test_sets`);
 - a CVAE reconstructs chi with z = mu (no sampling) and the cycle's true beta;
 - the baseline is scikit-learn's PCA on the training cycles' [chi, beta] (flattened chi, beta
@@ -11,8 +12,12 @@
   corresponding vertices of the true and reconstructed meshes (every anny vertex, both meshed by
   :class:`mocapviz.bodies.torch_mesh.ChiMesher` from the first root at the origin), averaged over
   vertices and the 100 frames, in mm (:func:`vertex_errors`);
-- :func:`error_table` summarises per (model, test set): n, mean, median, q1, q3 in mm;
-  :func:`boxplot_errors` draws Tukey box plots (whiskers at 1.5 IQR), as the paper's Figs. 3-5.
+- :func:`error_table` summarises per (model, test set): n, mean, median, q1, q3 and Tukey's
+  whisker ends in mm; :func:`boxplot_errors` draws Tukey box plots (whiskers at 1.5 IQR) of
+  per-sequence errors, :func:`boxplot_table` the same boxes from such a table's rows, as the
+  paper's Figs. 3-5;
+- :func:`on_scale` re-expresses a dataset's translations in a checkpoint's scale, so a model
+  trained on one build (the full dataset) reconstructs the cycles of another (the quick one).
 """
 
 from __future__ import annotations
@@ -24,14 +29,12 @@ from sklearn.decomposition import PCA
 
 from mocapviz.training.cvae4d import split_indices
 
-NOT_TEST = ("train", "val")
-
-
 def test_sets(ds) -> dict[str, np.ndarray]:
-    """Cycle indices of each test set: split name -> indices (no mirrored copies)."""
+    """Cycle indices of each test set: ``test_set`` value -> indices of the held-out cycles
+    (``split`` not "train") carrying it, without mirrored copies."""
     _, held = split_indices(ds)
-    split = ds.cycles["split"].to_numpy()
-    return {s: held[split[held] == s] for s in sorted(set(split[held])) if s not in NOT_TEST}
+    test_set = ds.cycles["test_set"].fillna("").astype(str).to_numpy()
+    return {t: held[test_set[held] == t] for t in sorted(set(test_set[held])) if t}
 
 
 @torch.no_grad()
@@ -50,7 +53,9 @@ class PCABaseline:
         self.requested = latent + beta.shape[1]
         self.rank_cap = len(data) - 1  # centred data of n rows spans at most n - 1 directions
         self.n_components = min(self.requested, self.rank_cap, data.shape[1])
-        self.pca = PCA(n_components=self.n_components, svd_solver="full").fit(data)
+        # sklearn picks a seeded randomized SVD for few components of a large set (the full SVD of
+        # 3,656 x 13,006 costs minutes of CPU), the exact one otherwise
+        self.pca = PCA(n_components=self.n_components, svd_solver="auto", random_state=0).fit(data)
         self.shape = chi.shape[1:]
 
     @staticmethod
@@ -83,11 +88,29 @@ def vertex_errors_many(mesher, chi: np.ndarray, chi_hats: dict, beta: np.ndarray
     return {name: torch.cat(v).numpy() if v else np.zeros(0) for name, v in out.items()}
 
 
+STAT_COLUMNS = ("mean", "median", "q1", "q3", "whislo", "whishi")
+
+
 def error_table(errors: dict[tuple[str, str], np.ndarray]) -> pd.DataFrame:
-    """One row per (model, test set): n, mean, median, q1, q3 of the per-sequence errors (mm)."""
-    rows = [dict(model=m, test_set=t, n=len(e), mean=np.mean(e), median=np.median(e),
-                 q1=np.percentile(e, 25), q3=np.percentile(e, 75)) for (m, t), e in errors.items()]
-    return pd.DataFrame(rows).round({"mean": 2, "median": 2, "q1": 2, "q3": 2})
+    """One row per (model, test set): n, mean, median, q1, q3 of the per-sequence errors (mm),
+    and Tukey's whisker ends (whislo, whishi: the most extreme errors within 1.5 IQR of the box)."""
+    rows = []
+    for (m, t), e in errors.items():
+        q1, q3 = np.percentile(e, 25), np.percentile(e, 75)
+        inside = e[(e >= q1 - 1.5 * (q3 - q1)) & (e <= q3 + 1.5 * (q3 - q1))]
+        rows.append(dict(model=m, test_set=t, n=len(e), mean=np.mean(e), median=np.median(e), q1=q1, q3=q3,
+                         whislo=inside.min(), whishi=inside.max()))
+    return pd.DataFrame(rows).round({c: 2 for c in STAT_COLUMNS})
+
+
+def boxplot_table(ax, rows: pd.DataFrame, labels: list[str], title: str = ""):
+    """The Tukey boxes of :func:`error_table` rows (one per label, in order; outliers not drawn)."""
+    stats = [dict(label=lab, med=r["median"], q1=r["q1"], q3=r["q3"], whislo=r["whislo"], whishi=r["whishi"],
+                  mean=r["mean"]) for lab, (_, r) in zip(labels, rows.iterrows())]
+    ax.bxp(stats, showfliers=False, showmeans=True)
+    ax.set_ylabel("mean vertex error per sequence (mm)")
+    ax.set_title(title)
+    return ax
 
 
 def boxplot_errors(ax, errors: dict[str, np.ndarray], title: str = "", xlabel: str = ""):
@@ -99,6 +122,18 @@ def boxplot_errors(ax, errors: dict[str, np.ndarray], title: str = "", xlabel: s
     ax.set_xlabel(xlabel)
     ax.set_title(title)
     return ax
+
+
+def on_scale(ds, gamma_scale):
+    """A copy of ``ds`` whose chi translations are divided by ``gamma_scale`` (3,) instead of the
+    dataset's own scale (each build takes its scale from its own training cycles)."""
+    from dataclasses import replace
+
+    new = np.asarray(gamma_scale, dtype=np.float64)
+    chi = ds.chi.copy()
+    n_theta = chi.shape[-1] - 4
+    chi[..., n_theta:n_theta + 3] *= (ds.gamma_scale / new).astype(chi.dtype)
+    return replace(ds, chi=chi, meta={**ds.meta, "gamma_scale": new.tolist()})
 
 
 def load_checkpoints(ds, paths: dict) -> dict:
