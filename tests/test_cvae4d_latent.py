@@ -16,6 +16,7 @@ from mocapviz.tasks.cvae4d_latent import (
     is_monotonic,
     latent_means,
     latent_pca,
+    neighbour_agreement,
     smallest_step,
     type_medoid,
 )
@@ -37,6 +38,13 @@ def test_latent_pca_of_a_cross():
     np.testing.assert_allclose(ratio, [0.8, 0.2], atol=1e-9)
     np.testing.assert_allclose(np.abs(xy[:, 0]), [1, 1, 0, 0], atol=1e-9)
     np.testing.assert_allclose(np.abs(xy[:, 1]), [0, 0, 0.5, 0.5], atol=1e-9)
+
+
+def test_neighbour_agreement():
+    mu = np.array([[0.0], [0.1], [5.0], [5.1], [9.0]])
+    # nearest others: 1, 0, 3, 2, 3 -> labels a a b b a: agree, agree, agree, agree, not (b)
+    assert neighbour_agreement(mu, list("aabba")) == pytest.approx(0.8)
+    assert neighbour_agreement(mu, list("ababa")) == pytest.approx(0.0)
 
 
 def test_type_medoid_is_closest_to_the_type_mean():

@@ -2,6 +2,8 @@
 
 - :func:`latent_means`: the encoder's mean mu of each cycle (z = mu, no sampling);
 - :func:`latent_pca`: their 2-D PCA (scikit-learn) and its explained variance ratios;
+- :func:`neighbour_agreement`: how clustered the types are in the full latent space (the share
+  of cycles whose nearest other cycle in mu has the same motion type);
 - :func:`type_medoid`: a representative cycle of a motion type (closest to its type's mean mu),
   the start or target of an interpolation;
 - :func:`interpolate`: (z, beta) moved linearly from one cycle to another and decoded;
@@ -37,6 +39,16 @@ def latent_pca(mu: np.ndarray, n_components: int = 2) -> tuple[np.ndarray, np.nd
     """(coordinates (B, n_components), explained variance ratio per component, the fitted PCA)."""
     pca = PCA(n_components=n_components, svd_solver="full").fit(mu)
     return pca.transform(mu), pca.explained_variance_ratio_, pca
+
+
+def neighbour_agreement(mu: np.ndarray, labels) -> float:
+    """Share of cycles whose nearest other cycle (Euclidean, in mu) carries the same label."""
+    from sklearn.neighbors import NearestNeighbors
+
+    labels = np.asarray(labels)
+    _, nn = NearestNeighbors(n_neighbors=2).fit(mu).kneighbors(mu)
+    other = np.where(nn[:, 0] == np.arange(len(mu)), nn[:, 1], nn[:, 0])  # skip the cycle itself
+    return float(np.mean(labels[other] == labels))
 
 
 def type_medoid(mu: np.ndarray, candidates: np.ndarray) -> int:
