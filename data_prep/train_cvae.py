@@ -8,7 +8,7 @@ reconstruction table (multi-frame 4D motion paper §3.3, §4.2-4.4).
     python -m data_prep train-cvae --table                       # results/cvae4d_reconstruction.csv
 
 Runs go to ``cache/cvae4d/<name>/`` (``model.safetensors``, ``losses.csv``); ``--export`` also
-writes ``models/zoo/<name>.safetensors`` (float16 weights, 2.5 MB) and ``<name>_losses.csv``.
+writes ``models/zoo/<name>.safetensors`` (float16 weights, 2.6 MB) and ``<name>_losses.csv``.
 The reconstruction table evaluates PCA and the two committed checkpoints on every test set; its
 ``checkpoint`` column is the sha256 (16 hex digits) of the file each row evaluated, so a test can
 tell that the table is current. The ablation table holds one row per test cycle and model.

@@ -31,8 +31,8 @@ class CVAE4DConfig:
     n_beta: int = 6           # anny's phenotypes (the paper: SMPL's 8 betas)
     latent: int = 64
     # encoder widths; the decoder uses them reversed. 48 at the chi end: the two chi-wide layers
-    # (2 x 48 x 13,000 weights) hold 98 % of the parameters; float16 storage makes a
-    # checkpoint 2.5 MB, under the repository's 3 MiB per file (64 made it 3.3 MB)
+    # (2 x 48 x 13,000 weights) hold 97 % of the parameters; float16 storage makes a
+    # checkpoint 2.6 MB, under the repository's 3 MiB per file (64 made it 3.3 MB)
     hidden: tuple[int, ...] = (48, 128)
 
     def __post_init__(self):
