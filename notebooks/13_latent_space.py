@@ -120,7 +120,7 @@ print(f"{len(ds)} cycles ({len(train_idx)} training, {len(ds) - len(train_idx)} 
 # %%
 mu = latent_means(model, ds.chi)
 xy, ratio, _ = latent_pca(mu)
-fig, ax = plt.subplots(figsize=(8, 6.5))
+fig, (ax, ax_s) = plt.subplots(1, 2, figsize=(16, 6.5))
 colors = dict(zip(sorted(set(types)), plt.cm.tab10.colors))
 for t in sorted(set(types)):
     for split, marker, size in (("train", "o", 14), ("test", "x", 30)):
@@ -131,12 +131,20 @@ for t in sorted(set(types)):
 ax.set(xlabel=f"PC 1 ({100 * ratio[0]:.1f} % of the variance)", ylabel=f"PC 2 ({100 * ratio[1]:.1f} %)",
        title=f"latent means of {len(ds)} cycles ({MODEL}); o training, x held out")
 ax.legend(fontsize=8, ncol=2)
+subjects = cycles["subject"].to_numpy()
+for k, subj in enumerate(sorted(set(subjects))):
+    sel = subjects == subj
+    ax_s.scatter(xy[sel, 0], xy[sel, 1], s=10, color=plt.cm.tab20(k % 20), alpha=0.6, label=f"{subj} ({sel.sum()})")
+ax_s.set(xlabel="PC 1", ylabel="PC 2", title="the same points coloured by subject")
+ax_s.legend(fontsize=7, ncol=2)
 fig.tight_layout()
 save_figure(fig, fig_dir / "cvae4d_fig01_latent_pca.png")
 print(f"explained variance of the two components: {ratio[0]:.3f} + {ratio[1]:.3f} = {ratio.sum():.3f}")
 print(f"nearest other cycle in the {mu.shape[1]}-D latent space has the same type for "
       f"{100 * neighbour_agreement(mu, types):.1f} % of the cycles "
       f"(by chance, i.e. drawing a type by its share: {100 * (cycles['type'].value_counts(normalize=True) ** 2).sum():.1f} %)")
+print(f"... the same subject: {100 * neighbour_agreement(mu, subjects):.1f} % "
+      f"(by chance: {100 * (cycles['subject'].value_counts(normalize=True) ** 2).sum():.1f} %)")
 display(pd.DataFrame(xy, columns=["pc1", "pc2"]).assign(type=types).groupby("type").agg(["mean", "std"]).round(2))
 
 # %% [markdown]
@@ -260,10 +268,13 @@ print(f"left -> right turn heading change monotonic from positive to negative: "
 # latent space holds fewer subjects, fewer types (no side steps, no carrying, only a few jogs)
 # and less training. The 2-D PCA keeps only the share of the 64-D variance printed above: types
 # that overlap in the plane can still be apart in the full space (the nearest-neighbour share
-# says how far). And the interpolation's start and target come from the same dataset the model
+# says how far). The right panel shows what else the plane separates: the performer (each
+# Bandai actor walks and runs in his own way), which the paper's many-subject AMASS data spread
+# more thinly; turning walks lie among the walks, as they are walks. And the interpolation's start and target come from the same dataset the model
 # was trained on, as in the paper (which picks them by hand from AMASS).
 
 # %%
-tc = meta["train_config"]
-print(f"{MODEL}: {meta['dataset']['n_train']} training cycles, {tc['epochs']} epochs (phase {tc['phase']}), "
+phases = dict.fromkeys(["cvae4d_phase1", MODEL])  # the phases behind the model shown
+epochs = " + ".join(str(load_cvae4d(n)[1]["train_config"]["epochs"]) for n in phases)
+print(f"{MODEL}: {meta['dataset']['n_train']} training cycles, {epochs} epochs ({' then '.join(phases)}), "
       f"beta of {ds.beta.shape[1]} parameters; paper: 13,121 cycles, 5,000 + 200 epochs, beta of 8")
