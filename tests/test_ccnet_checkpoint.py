@@ -93,3 +93,21 @@ def test_library_zoo_needs_no_repository_paths(tmp_path):
         zoo.load("ccnet_huge", zoo_dir=tmp_path)
     # a dataset builder is called only when the committed file is not used
     zoo.load("ccnet_default", zoo_dir=tmp_path, cache_dir=tmp_path, dataset=lambda: pytest.fail("built the data"))
+
+
+def test_split_checkpoint_reads_back_whole(tmp_path):
+    from mocapviz.training.checkpoint import split_checkpoint
+    model, norm, meta = load_checkpoint(CKPT)
+    whole = save_checkpoint(tmp_path / "whole.safetensors", model, norm, meta)
+    files = split_checkpoint(whole, tmp_path / "split.safetensors", max_bytes=2 ** 19)
+    assert len(files) > 2 and all(f.stat().st_size < 2 ** 19 + 2 ** 16 for f in files)
+    assert json.loads(read_checkpoint(files[0])[1]["parts"]) == [f.name for f in files[1:]]
+    a, b = read_checkpoint(whole)[0], read_checkpoint(files[0])[0]
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+
+
+def test_committed_wide_model_loads_by_name_from_its_parts():
+    from data_prep import zoo
+    model, norm, meta = zoo.load("ccnet_wide", retrain_if_missing=False)
+    assert model.cfg.channels == 96 and meta["step"] == 2800 and len(meta["parts"]) == 2
+    assert sum(p.numel() for p in model.parameters()) > 1_600_000  # more than one 3 MiB file holds

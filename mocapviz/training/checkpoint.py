@@ -52,10 +52,38 @@ def save_checkpoint(path, model: torch.nn.Module, normaliser: Normaliser, meta: 
     return path
 
 
+def split_checkpoint(src, dest, max_bytes: int) -> list[Path]:
+    """Rewrite the checkpoint ``src`` as ``dest`` plus ``<dest stem>.partK.safetensors`` files of
+    at most about ``max_bytes`` of tensors each (the repository keeps files under 3 MiB);
+    ``dest``'s metadata lists the parts and :func:`read_checkpoint` reads them back. Returns
+    every file written, ``dest`` first."""
+    dest = Path(dest)
+    with safe_open(str(src), framework="pt") as f:
+        meta = dict(f.metadata() or {})
+        tensors = {k: f.get_tensor(k) for k in f.keys()}
+    groups, size = [{}], 0
+    for k, v in tensors.items():
+        nbytes = v.numel() * v.element_size()
+        if groups[-1] and size + nbytes > max_bytes:
+            groups.append({})
+            size = 0
+        groups[-1][k] = v
+        size += nbytes
+    parts = [dest.with_name(f"{dest.stem}.part{i}.safetensors") for i in range(1, len(groups))]
+    meta["parts"] = json.dumps([p.name for p in parts])
+    for path, group, md in zip([dest, *parts], groups, [meta] + [{"format": meta["format"]}] * len(parts)):
+        with atomic_path(path) as tmp:
+            save_file(group, tmp, metadata=md)
+    return [dest, *parts]
+
+
 def read_checkpoint(path) -> tuple[dict[str, torch.Tensor], dict[str, str]]:
     with safe_open(str(path), framework="pt") as f:
         meta = f.metadata() or {}
         tensors = {k: f.get_tensor(k) for k in f.keys()}
+    for name in json.loads(meta.get("parts", "[]")):  # a checkpoint split by split_checkpoint
+        with safe_open(str(Path(path).with_name(name)), framework="pt") as f:
+            tensors.update({k: f.get_tensor(k) for k in f.keys()})
     fmt = meta.get("format")
     if fmt in LEGACY_FORMATS:
         meta = {**meta, "model": LEGACY_FORMATS[fmt]}
