@@ -265,3 +265,22 @@ def test_the_rig_sees_past_a_file_rest_pose(data_dir, checkpoint):
     # without the alignment the model would read other local rotations
     plain = [ModelRig(m, map_to_ccnet25(sk.names), ds["joint_names"], ds["parents"]) for m in (seed, turned)]
     assert np.abs(plain[1].to_model(turned).rotations - plain[0].to_model(seed).rotations).max() > 0.5
+
+
+@pytest.mark.parametrize("key", ["cmu", "hdm05"])
+def test_a_vicon_seed_reaches_the_network_as_the_dataset_built_it(data_dir, checkpoint, key):
+    """A seed file with all 25 joints keeps its own rest pose, so its frame vectors equal the
+    dataset's for the same clip: the network sees what it was trained on (aligned to the mean
+    rest, a CMU walk's rotations were 0.8 standard deviations off)."""
+    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+    from mocapviz.features.ccnet import motion_features
+    from mocapviz.skeleton import map_to_ccnet25
+    from mocapviz.tasks.generate_bvh import seed_rig
+    model, norm, meta = checkpoint
+    seed_file, asf = seed_paths(data_dir, key)
+    seed = load_seed(seed_file, asf).resample(60)[:200]
+    rig = seed_rig(seed, map_to_ccnet25(seed.skeleton.names, None), meta["dataset"], norm)
+    ours = motion_features(rig.to_model(seed), 60).x
+    ds = build_dataset(DatasetConfig.quick(), progress=False)
+    theirs = ds.clip_arrays(ds.clip_row(Path(seed_file).stem))["x"][:len(ours)]
+    np.testing.assert_allclose(norm.norm_x(ours), norm.norm_x(theirs), atol=1e-3)
