@@ -23,7 +23,7 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("generate", help="continue a BVH (or ASF/AMC) seed with a trained model, write BVH",
                        description="Continue your own motion file with CCNet: the output BVH holds the seed "
                                    "frames, then the generated ones, at 60 fps on the seed's own skeleton.")
-    p.add_argument("--model", default="ccnet_default",
+    p.add_argument("--model", default="ccnet_wide",
                    help="a .safetensors checkpoint, or a model name looked up in $MOCAPVIZ_ZOO (mocapviz.zoo) and in "
                         "models/zoo/ of the current folder and its parents (default: %(default)s)")
     p.add_argument("--seed", required=True, help="the seed motion: a .bvh file, or an .amc file with --asf")
