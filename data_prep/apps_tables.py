@@ -1,4 +1,4 @@
-"""``python -m data_prep apps-tables --model ccnet_default [--quick]``: CCNet paper Table 1
+"""``python -m data_prep apps-tables --model ccnet_wide [--quick]``: CCNet paper Table 1
 (denoising) and the trajectory-following distances of §4.3.2, for a CCNet named on the command
 line against the committed baselines, written to ``results/``.
 
@@ -33,7 +33,7 @@ QUICK_SEEDS = 8
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--model", default="ccnet_default", help="the CCNet: a name in models/zoo or a .safetensors file")
+    p.add_argument("--model", default="ccnet_wide", help="the CCNet: a name in models/zoo or a .safetensors file")
     p.add_argument("--erd", default="erd_quick")
     p.add_argument("--dae", default="dae_lstm_quick")
     p.add_argument("--pfnn", default="pfnn_quick")

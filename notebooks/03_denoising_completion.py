@@ -15,7 +15,7 @@
 
 # %% tags=["parameters"]
 QUICK = True             # quick: the quick dataset's test clips (CI); full: the full test split
-MODEL = "ccnet_default"  # the CCNet compared (a name in models/zoo or a .safetensors file)
+MODEL = "ccnet_wide"  # the CCNet compared (a name in models/zoo or a .safetensors file)
 BASELINES = ("erd_quick", "dae_lstm_quick")
 FIG_DIR = "../figures"
 
@@ -82,7 +82,7 @@ side
 
 # %%
 committed = REPO_ROOT / "results" / "ccnet_table1_denoising.csv"
-if committed.is_file():   # the full-mode table (python -m data_prep apps-tables --model ccnet_default)
+if committed.is_file():   # the full-mode table (python -m data_prep apps-tables --model ccnet_wide)
     full = pd.read_csv(committed)
     print("committed results/ccnet_table1_denoising.csv (full mode):")
     print(full.pivot_table(index=["dataset", "noise_std"], columns="model", values="mean").round(3).to_string())

@@ -15,7 +15,7 @@
 
 # %% tags=["parameters"]
 QUICK = True             # quick: 4 seeds of the quick dataset (CI); full: every locomotion test clip
-MODEL = "ccnet_default"  # the CCNet compared (a name in models/zoo or a .safetensors file)
+MODEL = "ccnet_wide"  # the CCNet compared (a name in models/zoo or a .safetensors file)
 BASELINES = ("pfnn_quick", "erd_quick")
 FIG_DIR = "../figures"
 
@@ -87,7 +87,7 @@ table.round(2)
 
 # %%
 committed = REPO_ROOT / "results" / "ccnet_trajectory_following.csv"
-if committed.is_file():   # the full-mode table (python -m data_prep apps-tables --model ccnet_default)
+if committed.is_file():   # the full-mode table (python -m data_prep apps-tables --model ccnet_wide)
     print("committed results/ccnet_trajectory_following.csv (full mode):")
     print(pd.read_csv(committed).to_string(index=False))
 

@@ -14,7 +14,7 @@ RESULTS = Path(__file__).resolve().parent.parent / "results"
 def test_denoising_table_has_every_model_dataset_and_noise():
     t = pd.read_csv(RESULTS / "ccnet_table1_denoising.csv")
     assert list(t.columns) == ["dataset", "noise_std", "model", "mean", "std", "n"]
-    assert {"ccnet_default", "erd_quick", "dae_lstm_quick", "noisy_input"} <= set(t.model)
+    assert {"ccnet_wide", "erd_quick", "dae_lstm_quick", "noisy_input"} <= set(t.model)
     assert set(t.dataset) == {"D", "S-CMU"}
     for (dataset, model), g in t.groupby(["dataset", "model"]):
         assert sorted(g.noise_std) == sorted(NOISE_STDS), (dataset, model)
@@ -27,7 +27,7 @@ def test_denoising_table_has_every_model_dataset_and_noise():
 def test_trajectory_table_has_the_three_models():
     t = pd.read_csv(RESULTS / "ccnet_trajectory_following.csv")
     assert list(t.columns) == ["model", "mean_cm", "std_cm", "n", "covered"]
-    assert {"ccnet_default", "pfnn_quick", "erd_quick"} <= set(t.model)
+    assert {"ccnet_wide", "pfnn_quick", "erd_quick"} <= set(t.model)
     assert (t.n > 0).all() and (t.mean_cm > 0).all() and t.covered.between(0, 1).all()
     assert t.n.nunique() == 1   # every model from the same seeds along the same paths
 
