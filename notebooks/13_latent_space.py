@@ -74,7 +74,7 @@ from mocapviz.tasks.cvae4d_latent import (cycle_measurements, interpolate, is_mo
                                           neighbour_agreement, smallest_step, type_medoid)
 from mocapviz.training.cvae4d import data_fingerprint, split_indices
 from mocapviz.viz import cycle_strips, save_figure, set_notebook_backend
-from mocapviz.zoo import find_checkpoint, load_cvae4d
+from mocapviz.zoo import load_cvae4d
 
 torch.set_num_threads(1)
 set_notebook_backend(QUICK)
@@ -93,14 +93,7 @@ pd.set_option("display.width", 160)
 
 
 # %%
-def committed(name):
-    try:
-        return find_checkpoint(name)
-    except FileNotFoundError:
-        return None
-
-
-MODEL = "cvae4d_phase2" if committed("cvae4d_phase2") else "cvae4d_phase1"
+MODEL = "cvae4d_phase2"
 model, meta = load_cvae4d(MODEL)
 ds = build_dataset(Body4DConfig.quick() if QUICK else Body4DConfig())
 print(f"model {MODEL}: latent {model.cfg.latent}, trained on {meta['dataset']['n_train']} training cycles "

@@ -149,12 +149,12 @@ def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None,
         if r["type"] not in refs:
             refs[r["type"]] = (*real_reference(ds, r["type"]), real_pose_distance(ds, bank, r["type"]))
         act, jit, speed, dist = refs[r["type"]]
+        root_speed = metrics.root_speed(half.root_positions, m.fps)
         per_clip[r["clip"]] = dict(
             type=r["type"], freezing_share=metrics.freezing_share(local, m.fps),
             activity_ratio=metrics.activity(local, m.fps) / act, jitter_ratio=metrics.jitter(local, m.fps) / jit,
             pose_distance_ratio=pose_distance(half, bank) / dist,
-            root_speed_ratio=metrics.root_speed(half.root_positions, m.fps) / speed,
-            root_speed_difference=metrics.root_speed(half.root_positions, m.fps) - speed,
+            root_speed_ratio=root_speed / speed, root_speed_difference=root_speed - speed,
             root_height_ratio=float(half.root_positions[:, 1].mean() / m.root_positions[:n_seed, 1].mean()))
         motions[r["clip"]] = m
     summary = {key: [round(float(f(v)), 3) for f in (np.min, np.median, np.max)]
