@@ -237,3 +237,18 @@ def test_config_json_roundtrip_and_validation():
     assert CCNetConfig.from_json(cfg.to_json()) == cfg
     with pytest.raises(ValueError):
         CCNetConfig(kernel_size=3)
+
+
+def test_beta_nll_weights_the_gradient_not_the_logged_nll():
+    """beta-NLL (losses.py): the logged NLL is the plain one; the mean's gradient is the plain
+    one times sigma^(2 beta), so beta = 1 pulls a mean like the squared error, whatever sigma."""
+    target = torch.zeros(1, 1, 2)
+    for beta, expected in ((0.0, [1.0 / 4, 1.0 / 0.25]), (1.0, [1.0, 1.0]), (0.5, [1.0 / 2, 1.0 / 0.5])):
+        mean = torch.ones(1, 1, 2, requires_grad=True)
+        out = dict(mean=mean, sigma=torch.tensor([[[2.0, 0.5]]]), traj_mean=torch.zeros(1, 1, 1),
+                   traj_sigma=torch.ones(1, 1, 1), contact_logits=torch.zeros(1, 1, 0))
+        parts = ccnet_loss(out, target, torch.zeros(1, 1, 1), 2, lambdas=(0.0, 0.0, 0.0), nll_beta=beta)
+        parts["loss"].backward()
+        np.testing.assert_allclose(mean.grad[0, 0].numpy(), expected, rtol=1e-6)   # (mean - target) / sigma^2 * w
+        plain = np.log([2.0, 0.5]) + 0.5 * np.array([1 / 4, 1 / 0.25]) + 0.5 * np.log(2 * np.pi)
+        assert parts["nll"].item() == pytest.approx(plain.sum(), rel=1e-6)

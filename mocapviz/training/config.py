@@ -25,6 +25,7 @@ class TrainConfig:
     lr: float = 1e-4
     lr_final: float = 1e-6
     noise_std: float = 0.03
+    nll_beta: float = 0.0           # beta-NLL exponent of the Gaussian term (losses.py; 0 = paper)
     offset_noise_std: float = 0.0   # per-window constant input offset, std up to this (see trainer)
     lambdas: tuple[float, float, float] = LAMBDAS
     dilations: tuple[int, ...] = (2,) * 20

@@ -162,7 +162,7 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         if cfg.feedback_passes:
             b["x"] = fed_back(net, b, model.input_names, cfg.feedback_passes)
         out = net(**{k: b[k] for k in model.input_names})
-        parts = loss_fn(out, b, model.cfg, cfg.lambdas)
+        parts = loss_fn(out, b, model.cfg, cfg.lambdas, nll_beta=cfg.nll_beta)
         opt.zero_grad(set_to_none=True)
         parts["loss"].backward()
         opt.step()

@@ -1,0 +1,52 @@
+"""One-step prediction against the trivial predictors (mocapviz.tasks.one_step), on hand cases
+and on real clips with a stub network whose mean is its input."""
+
+import numpy as np
+import pytest
+import torch
+
+from mocapviz.tasks.one_step import one_step_errors, one_step_table
+
+
+def test_one_step_errors_by_hand():
+    # a ramp of slope 0.1 per frame, then a kink: copy-last errs by the slope, extrapolation
+    # only at the kink
+    x = np.array([[0.0], [0.1], [0.2], [0.3], [0.1]])
+    mean = np.array([[0.1], [0.25], [0.3], [0.0]])   # predictions of frames 1..4
+    sigma = np.array([[1.0], [2.0], [3.0], [4.0]])
+    e = one_step_errors(x, mean, sigma)
+    np.testing.assert_allclose(e["copy_last"][:, 0], [0.1, 0.1, 0.2])
+    np.testing.assert_allclose(e["extrapolate"][:, 0], [0.0, 0.0, 0.3], atol=1e-12)
+    np.testing.assert_allclose(e["mean_error"][:, 0], [0.05, 0.0, 0.1], atol=1e-12)
+    np.testing.assert_allclose(e["sigma"][:, 0], [2.0, 3.0, 4.0])
+
+
+class CopyLast(torch.nn.Module):
+    """A stub network: its mean of frame t+1 is its input frame t, sigma 0.5 everywhere."""
+
+    def __init__(self, n_continuous: int, n_types: int):
+        super().__init__()
+        self.n, self.cfg = n_continuous, type("Cfg", (), {"n_types": n_types})
+
+    def forward(self, x, skel, traj, types):
+        mean = x[..., :self.n]
+        return dict(mean=mean, sigma=torch.full_like(mean, 0.5))
+
+
+@pytest.fixture(scope="module")
+def ds(data_dir):
+    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
+
+
+def test_a_network_that_copies_its_input_scores_copy_last(ds):
+    norm = ds.normaliser
+    rows = np.flatnonzero((ds.clips.split == "test").values)[:3]
+    table = one_step_table(CopyLast(len(norm.x_mean), len(ds.motion_types)), norm, ds, rows)
+    assert list(table.columns) == ["sigma", "mean_error", "copy_last", "extrapolate"]
+    assert {"rot", "pos", "all"} <= set(table.index)
+    np.testing.assert_allclose(table["mean_error"], table["copy_last"], rtol=1e-5)
+    np.testing.assert_allclose(table["sigma"], 0.5)
+    # real motion is smooth at 60 fps: constant velocity predicts the joint angles better than
+    # standing still, and a frame moves far less than one training standard deviation
+    assert table.loc["rot", "extrapolate"] < table.loc["rot", "copy_last"] < 0.1
