@@ -134,6 +134,14 @@ def test_ground_track_projects_root(walk):
     assert abs(floor - geo.lowest_point(walk).min()) < 0.02
 
 
+def test_joint_tracks_are_the_named_joints_positions(walk):
+    pos = walk.positions()
+    tracks = geo.joint_tracks(walk, ["Hips", "RightHand"])
+    assert tracks.shape == (walk.n_frames, 2, 3)
+    np.testing.assert_allclose(tracks[:, 0], walk.root_positions)       # the root joint sits at the root
+    np.testing.assert_allclose(tracks[:, 1], pos[:, walk.skeleton.index("RightHand")])
+
+
 def test_travel_direction_of_a_straight_walk(walk):
     d = geo.travel_direction(walk)
     step = walk.root_positions[-1] - walk.root_positions[0]
