@@ -18,7 +18,7 @@ of them, the skeleton and type convs, run once per window) and 0.55 M for ERD-4L
 blocks) plus a tanh, a sigmoid, a product and two sums over all B x T x 96 activations per block,
 forward and backward, while each LSTM layer is one fused oneDNN kernel. Measured on 2026-12-02
 (quick dataset, 31 batches of 16 windows of 60 frames, one thread of a shared 2-core machine):
-CCNet 7.9 s per epoch, ERD-4LR 5.1 s, ratio 0.65 (0.66-0.69 in earlier runs). Looking for
+CCNet 7.9 s per epoch, ERD-4LR 5.1 s, ratio 0.65 (0.64-0.69 over runs). Looking for
 avoidable overhead in CCNet's step: torch.profiler put 42 % of it in matrix products and the rest
 in many small element-wise ops (gates, padding, slice gradients, dropout's Bernoulli draw on the
 input: ~5 %); Adam's multi-tensor path (``foreach=True``, CCNet has 144 parameter tensors) and
@@ -147,7 +147,8 @@ def main(argv=None) -> dict:
         res[f"{name}_frames_per_s"] = round(frames / t.seconds, 1)
         res[f"{name}_macs_per_frame"] = macs_per_frame(t.model)
         res[f"{name}_dependent_layers"] = dependent_layers(t.model, a.window)
-        print(f"{name:6s} {count_parameters(t.model):8d} parameters, {macs_per_frame(t.model) / 1e6:.2f} M multiply-adds "
+        print(f"{name:6s} {count_parameters(t.model):8d} parameters, "
+              f"{macs_per_frame(t.model) / 1e6:.2f} M multiply-adds "
               f"per frame, {dependent_layers(t.model, a.window)} dependent layers per window: one epoch "
               f"({len(batches)} batches, {frames} frames) in {t.seconds:.1f} s, {frames / t.seconds:.0f} frames/s")
     res["erd_over_ccnet"] = round(res["erd_epoch_s"] / res["ccnet_epoch_s"], 2)

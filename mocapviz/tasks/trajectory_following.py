@@ -161,7 +161,8 @@ class Following:
         if self.generated is None:
             raise ValueError("the generated frames were not kept: call follow(..., keep=True)")
         g = self.generated
-        m = g.motion(i, skeleton, self.start_root[i], self.start_heading[i], ik=ik, name=f"{self.model} {self.trajectory}")
+        m = g.motion(i, skeleton, self.start_root[i], self.start_heading[i], ik=ik,
+                     name=f"{self.model} {self.trajectory}")
         return m[g.n_seed:]
 
 

@@ -105,8 +105,9 @@ def denoising_render(motions: dict[str, Motion], frame: int, joints=EFFECTORS, p
         p = new_plotter(panel_size)
         add_ground(p, focal, _ground_size(pts, 3.0), floor, cell=0.5)
         _add_poses(p, m, [frame], BODY_COLOR)
-        for j, color in zip(range(len(joints)), EFFECTOR_COLORS * len(joints)):
-            p.add_mesh(_tube(tracks[label][:, j], _pixels(1.2, dist, panel_size)), color=color, lighting=False, reset_camera=False)
+        for j in range(len(joints)):
+            p.add_mesh(_tube(tracks[label][:, j], _pixels(1.2, dist, panel_size)),
+                       color=EFFECTOR_COLORS[j % len(EFFECTOR_COLORS)], lighting=False, reset_camera=False)
         panels.append(_snap(p, focal, view, dist, elevation, label))
     return _join(panels, path)
 
