@@ -168,6 +168,24 @@ for k, p in pos.items():
     print(f"{k:>24s}: mean |acceleration| of right hand + toe {jit:.1f} m/s^2, lowest toe {p[:, sk.index('RightToeBase'), 1].min():+.3f} m")
 
 # %% [markdown]
+# The same three versions rendered (`mocapviz.viz.apps_scene.denoising_render`, one camera for
+# the three panels): the body at the middle of a short window and the paths of both hands
+# (orange: left, red: right) and both toes (cyan: left, blue: right) over that window.
+
+# %%
+from IPython.display import Image, display
+
+from mocapviz.viz.apps_scene import completion_render, denoising_render
+
+PANEL = (300, 260) if QUICK else (480, 400)   # quick: small panels and a 1.5 s window
+win = min(len(den), 90 if QUICK else 180)
+a = (len(den) - win) // 2
+motions = {k: features_to_motion(v, sk)[a:a + win] for k, v in seqs.items()}
+denoising_render(motions, win // 2, path=fig_dir / "ccnet_denoising_fig4ab_render.png", panel_size=PANEL)
+display(Image(filename=str(fig_dir / "ccnet_denoising_fig4ab_render.png")))
+print(f"frames {a + 1}-{a + win} of {ds.clips['clip'][row]}, {win / ds.config.fps:.1f} s")
+
+# %% [markdown]
 # ## 3 · Fig. 4(c-d): completing the right leg
 #
 # The rotations of the right leg (hip, knee, ankle, toe) set to zero on 30 % of the frames of a
@@ -193,3 +211,19 @@ fig.savefig(fig_dir / "ccnet_completion_fig4cd.png", dpi=90)
 print(f"on the zeroed frames: corrupted {res['corrupted_error'][d].mean():.1f} cm, "
       f"completed {res['completed_error'][d].mean():.1f} cm; elsewhere the completion is off by "
       f"{res['completed_error'][~d].mean():.1f} cm (its one-frame prediction error)")
+
+# %% [markdown]
+# Rendered (`completion_render`): four frames of the first zeroed run, the truth in grey behind
+# the corrupted input (left) and CCNet's completion (right).
+
+# %%
+long_sk = ds.skeleton(long_row)
+comp = {k: features_to_motion(res[k], long_sk) for k in ("truth", "corrupted", "completed")}
+first = int(np.flatnonzero(d)[0])
+shown = np.minimum(first + np.array([0, 10, 20, 29]), len(d) - 1)
+completion_render(comp["truth"], {"corrupted input (right leg zeroed)": comp["corrupted"],
+                                  f"{MODEL} completion": comp["completed"]}, shown,
+                  path=fig_dir / "ccnet_completion_fig4cd_render.png", panel_size=PANEL)
+display(Image(filename=str(fig_dir / "ccnet_completion_fig4cd_render.png")))
+print(f"frames {list(shown + 1)}: right-leg error corrupted {np.round(res['corrupted_error'][shown], 1)} cm, "
+      f"completed {np.round(res['completed_error'][shown], 1)} cm")

@@ -130,6 +130,37 @@ fig.tight_layout()
 fig.savefig(fig_dir / "ccnet_trajectory_fig6.png", dpi=90)
 
 # %% [markdown]
+# Rendered (`mocapviz.viz.apps_scene.following_render`, one camera for the three panels): the
+# same seed and target, each model generated again alone with its frames kept, the body at
+# four frames of the run. The bodies are the networks' own poses, **without the foot IK** of
+# `Generated.motion`: where a model glides with a frozen pose, its contact labels stay on and the
+# IK pins the foot where the contact began, so the leg is dragged out straight towards a point
+# metres behind the body: a picture of the IK, not of the model.
+
+# %%
+from IPython.display import Image, display
+
+from mocapviz.viz.apps_scene import following_render
+
+PANEL = (320, 300) if QUICK else (520, 480)   # quick: small panels
+
+
+def render_runs(model_names, path_name, seed_row, path, n_poses=4, show_types=False):
+    """Each model along ``path_name`` from one seed, frames kept, rendered side by side."""
+    runs = {}
+    for name in model_names:
+        k = tf.follow(*models[name], ds, [seed_row], path_name, speeds, model_name=name, keep=True)
+        label = f"{name}: {k.distance_cm[0]:.0f} cm, covered {k.covered[0]:.2f}"
+        label += f"\n{path_name}: {' / '.join(k.types)}" if show_types else ""
+        runs[label] = (k.target[0], k.achieved[0], k.motion(0, ds.skeleton(seed_row), ik=False))
+    following_render(runs, n_poses=n_poses, path=path, panel_size=PANEL)
+    display(Image(filename=str(path)))
+    return runs
+
+
+fig6 = render_runs((MODEL, *BASELINES), pick, r.rows[0], fig_dir / "ccnet_trajectory_fig6_render.png")
+
+# %% [markdown]
 # ## 4 · Fig. 5: a type-changing path (CCNet on each path, first seed)
 
 # %%
@@ -139,6 +170,15 @@ for ax, name in zip(axes, tf.TRAJECTORIES):
     top_view(ax, r, 0, f"{name}: {' / '.join(r.types)}")
 fig.tight_layout()
 fig.savefig(fig_dir / "ccnet_trajectory_fig5.png", dpi=90)
+
+# %% [markdown]
+# Rendered: the first path whose segments change type (walk <-> jog), CCNet from the first seed.
+
+# %%
+changing = next(n for n in tf.TRAJECTORIES if len(set(tf.segment_types(tf.load_trajectory(n)))) > 1)
+print(f"{changing}: segments {' / '.join(tf.segment_types(tf.load_trajectory(changing)))}")
+fig5 = render_runs((MODEL,), changing, rows[0], fig_dir / "ccnet_trajectory_fig5_render.png", n_poses=6,
+                   show_types=True)
 
 # %% [markdown]
 # ## 5 · Fig. 7(a): tight turns for the held-out subject
@@ -152,5 +192,7 @@ if held:
     top_view(ax, r, 0, f"{MODEL}: tight turns, held-out {ds.meta['test_subject']} ({ds.clips['clip'][held[0]]})")
     ax.legend()
     fig.savefig(fig_dir / "ccnet_trajectory_fig7a.png", dpi=90)
+    fig7 = render_runs((MODEL,), "tight_turns", held[0], fig_dir / "ccnet_trajectory_fig7a_render.png", n_poses=6,
+                       show_types=True)
 else:
     print(f"no locomotion test clip of the held-out subject {ds.meta['test_subject']} longer than 120 frames")

@@ -116,3 +116,23 @@ def test_following_distance_of_a_sideways_walker_grows_as_hand_computed():
     assert list(table.columns[:4]) == ["model", "mean_cm", "std_cm", "n"]
     assert table.n[0] == 2 and table.mean_cm[0] == pytest.approx(expected, rel=1e-3)
     assert res.covered.max() < 0.05    # it never moves along the path: only the first 0.5 m is near it
+
+
+def test_kept_frames_pose_the_generated_body_on_the_achieved_path():
+    from mocapviz.skeleton import Skeleton
+    n_seed = 30
+    norm = Normaliser(np.zeros(LAYOUT.n_continuous, np.float32), np.full(LAYOUT.n_continuous, 0.5, np.float32),
+                      np.zeros(LAYOUT.n_skel, np.float32), np.ones(LAYOUT.n_skel, np.float32),
+                      np.zeros(12, np.float32), np.ones(12, np.float32))
+    ds = fake_dataset(n_seed)
+    lean = tf.follow(Sideways(1.2), norm, ds, [0, 1], "straight", {"walk": 1.3, "jog": 3.0}, n_seed=n_seed)
+    assert lean.generated is None
+    with pytest.raises(ValueError, match="keep=True"):
+        lean.motion(0, None)
+    res = tf.follow(Sideways(1.2), norm, ds, [0, 1], "straight", {"walk": 1.3, "jog": 3.0}, n_seed=n_seed, keep=True)
+    np.testing.assert_allclose(res.achieved, lean.achieved)
+    star = Skeleton(tuple(CCNET_25_JOINTS), np.array([-1] + [0] * 24), np.full((25, 3), 0.1))
+    for i in range(2):
+        m = res.motion(i, star, ik=False)
+        assert m.n_frames == res.achieved.shape[1]
+        np.testing.assert_allclose(m.root_positions[:, [0, 2]], res.achieved[i], atol=1e-9)

@@ -134,6 +134,14 @@ def test_ground_track_projects_root(walk):
     assert abs(floor - geo.lowest_point(walk).min()) < 0.02
 
 
+def test_joint_tracks_are_the_named_joints_positions(walk):
+    pos = walk.positions()
+    tracks = geo.joint_tracks(walk, ["Hips", "RightHand"])
+    assert tracks.shape == (walk.n_frames, 2, 3)
+    np.testing.assert_allclose(tracks[:, 0], walk.root_positions)       # the root joint sits at the root
+    np.testing.assert_allclose(tracks[:, 1], pos[:, walk.skeleton.index("RightHand")])
+
+
 def test_travel_direction_of_a_straight_walk(walk):
     d = geo.travel_direction(walk)
     step = walk.root_positions[-1] - walk.root_positions[0]
@@ -254,3 +262,42 @@ def test_frame_strip(walk, tmp_path):
     assert (tmp_path / "s.png").stat().st_size > 1_000
     panels = [strip[:, i * 83:i * 83 + 80] for i in range(3)]
     assert all((pn.min(axis=-1) < 150).sum() > 30 for pn in panels)  # a dark body in each panel
+
+
+# ------------------------------------------------------------------ CCNet application renders (Figs. 4-7)
+def _panels(img, n, width):
+    return [img[:, i * (width + 3):i * (width + 3) + width] for i in range(n)]
+
+
+def test_denoising_render_draws_a_body_and_the_effector_paths_in_each_panel(walk, tmp_path):
+    apps = pytest.importorskip("mocapviz.viz.apps_scene")
+    img = apps.denoising_render({"noisy": walk, "denoised": walk, "clean": walk}, 20, path=tmp_path / "d.png",
+                                panel_size=(160, 120))
+    assert img.shape == (120, 3 * 160 + 2 * 3, 3) and (tmp_path / "d.png").stat().st_size > 1_000
+    for pn in _panels(img, 3, 160):
+        assert (pn.min(axis=-1) < 150).sum() > 30                         # a dark body
+        for color in apps.EFFECTOR_COLORS[1::2]:                          # right hand, right toe paths
+            assert _near(pn, color, tol=90).sum() > 5
+
+
+def test_completion_render_shows_the_truth_behind_each_version(walk, tmp_path):
+    apps = pytest.importorskip("mocapviz.viz.apps_scene")
+    img = apps.completion_render(walk, {"corrupted": walk, "completed": walk}, [0, 20, 39], panel_size=(160, 120))
+    assert img.shape == (120, 2 * 160 + 3, 3)
+    for pn, color in zip(_panels(img, 2, 160), ("#d62728", apps.BODY_COLOR)):
+        assert _near(pn, color, tol=120).sum() > 30
+
+
+def test_following_render_draws_target_green_and_achieved_yellow(walk, tmp_path):
+    apps = pytest.importorskip("mocapviz.viz.apps_scene")
+    achieved = walk.root_positions[:, [0, 2]]
+    target = achieved[[0, -1]] + [0.5, 0.0]          # a straight target half a metre to the side
+    img = apps.following_render({"with body": (target, achieved, walk), "paths only": (target, achieved, None)},
+                                n_poses=2, panel_size=(160, 120))
+    assert img.shape == (120, 2 * 160 + 3, 3)
+    body = []
+    for pn in _panels(img, 2, 160):
+        assert _near(pn, apps.TARGET_COLOR, tol=90).sum() > 20
+        assert _near(pn, apps.ACHIEVED_COLOR, tol=90).sum() > 20
+        body.append((pn.min(axis=-1) < 120).sum())
+    assert body[0] > body[1] + 30                     # only the first panel has bodies

@@ -27,7 +27,7 @@ import pandas as pd
 from mocapviz.features.ccnet import FPS, FeatureLayout, integrate_root
 from mocapviz.features.motion_types import MOTION_TYPES, one_hot
 from mocapviz.heading import from_heading_frame_xz
-from mocapviz.tasks.generate import Generator
+from mocapviz.tasks.generate import Generated, Generator
 
 TRAJECTORY_DIR = Path(__file__).resolve().parent / "trajectories"
 TRAJECTORIES = ("straight", "s_curve", "circle", "figure_eight", "zig_zag", "tight_turns")
@@ -151,11 +151,25 @@ class Following:
     covered: np.ndarray       # (B,) share of the target within COVER_RADIUS of the achieved path:
                               # standing still at the start scores a small distance, and this says so
     types: list[str]
+    start_root: np.ndarray    # (B, 3) root of the frame before each seed, as the clip's
+    start_heading: np.ndarray  # (B,) its heading
+    generated: Generated | None = None   # seed + generated frames, kept when ``follow(keep=True)``
+
+    def motion(self, i: int, skeleton, ik: bool = True):
+        """The generated frames of character ``i`` (seed left out) as a Motion in the world frame
+        of ``target`` and ``achieved``: for rendering (needs ``follow(..., keep=True)``)."""
+        if self.generated is None:
+            raise ValueError("the generated frames were not kept: call follow(..., keep=True)")
+        g = self.generated
+        m = g.motion(i, skeleton, self.start_root[i], self.start_heading[i], ik=ik,
+                     name=f"{self.model} {self.trajectory}")
+        return m[g.n_seed:]
 
 
 def follow(model, normaliser, ds, rows: list[int], name: str, speeds: dict[str, float], model_name: str = "",
-           n_seed: int = N_SEED, backend: str = "torch", progress: bool = False) -> Following:
-    """Generate every seed of ``rows`` along trajectory ``name`` in one batch (mean output)."""
+           n_seed: int = N_SEED, backend: str = "torch", progress: bool = False, keep: bool = False) -> Following:
+    """Generate every seed of ``rows`` along trajectory ``name`` in one batch (mean output);
+    ``keep``: keep the generated frame vectors (for :meth:`Following.motion`)."""
     traj = load_trajectory(name)
     types = segment_types(traj)
     local, names = frame_path(traj, types, speeds)
@@ -190,7 +204,7 @@ def follow(model, normaliser, ds, rows: list[int], name: str, speeds: dict[str, 
         dist.append(100.0 * polyline_distance(g, targets[i]).mean())
         covered.append(coverage(targets[i], g))
     return Following(model_name, name, list(rows), np.stack(targets), np.stack(achieved), np.asarray(dist),
-                     np.asarray(covered), types)
+                     np.asarray(covered), types, np.stack(starts), np.asarray(headings), out if keep else None)
 
 
 def following_table(results: list[Following]) -> pd.DataFrame:

@@ -180,3 +180,9 @@ def travel_direction(motion: Motion) -> np.ndarray:
     _, _, vt = np.linalg.svd(xz, full_matrices=False)
     d = np.array([vt[0, 0], 0.0, vt[0, 1]])
     return d / np.linalg.norm(d)
+
+
+def joint_tracks(motion: Motion, joints) -> np.ndarray:
+    """World positions (F, len(joints), 3) of the named joints over the clip (e.g. hands, toes)."""
+    idx = [motion.skeleton.index(j) for j in joints]
+    return motion.positions()[:, idx]
