@@ -66,6 +66,7 @@ import data_prep.motion_types as motion_types
 import mocapviz.datasets.ccnet as container
 import mocapviz.features.ccnet_joints as joints
 from data_prep.cached import load_or_build
+from mocapviz.atomic import atomic_path
 from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
 from data_prep.motion_types import merged_type, source_label
 from data_prep.sources import find_data_dir
@@ -147,6 +148,22 @@ def bandai_alignment(root: Path) -> np.ndarray:
     m = load_motion(cat[cat["clip"] == clip].iloc[0])
     pos, rot = m.global_pose()
     return joints.rest_alignment(m.skeleton, pos[frame], rot[frame])
+
+
+def write_known_rests(root: Path, path: Path = joints.KNOWN_RESTS_FILE) -> Path:
+    """Write the rest re-basing of Bandai's skeleton (:func:`bandai_alignment`) for the mapped
+    joints, keyed by their offsets, to ``path`` (read by
+    :func:`mocapviz.features.ccnet_joints.known_alignment`)."""
+    cat = build_catalog(root, sources=("bandai",))
+    m = load_motion(cat[cat["clip"] == BANDAI_REST_REFERENCE[0]].iloc[0])
+    sk, a = m.skeleton, bandai_alignment(root)
+    mapped = [j for j, name in enumerate(sk.names) if name in joints.CCNET_25_PARENTS]
+    entry = {"reference": f"{BANDAI_REST_REFERENCE[0]} frame {BANDAI_REST_REFERENCE[1]}",
+             "offsets": {sk.names[j]: np.round(sk.offsets[j], 6).tolist() for j in mapped if j != 0},
+             "alignment": {sk.names[j]: np.round(a[j], 9).ravel().tolist() for j in mapped}}
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps({"bandai": entry}, indent=1) + "\n")
+    return path
 
 
 def load_ccnet_motion(row, root: Path, fps: float = feat.FPS):

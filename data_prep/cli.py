@@ -54,6 +54,13 @@ def _download(args) -> int:
     return 0
 
 
+def _known_rests(args) -> int:
+    from data_prep.ccnet_dataset import write_known_rests
+    from data_prep.sources import find_data_dir
+    print(f"written {write_known_rests(find_data_dir(args.data_dir))}")
+    return 0
+
+
 def _train(args) -> int:
     from data_prep.train import run
     return run(args)
@@ -96,6 +103,11 @@ def parser() -> argparse.ArgumentParser:
                    help="accept the academic-only license of Human3.6M (required to fetch h36m)")
     d.add_argument("--force", action="store_true", help="download again even if files exist")
     d.set_defaults(func=_download)
+
+    k = sub.add_parser("known-rests", help="write mocapviz/features/known_rests.json: the rest re-basing the "
+                       "dataset gives Bandai's skeleton, so that the generate command prepares a Bandai file alike")
+    k.add_argument("--data-dir", default=None)
+    k.set_defaults(func=_known_rests)
 
     from data_prep.train import add_arguments
     t = sub.add_parser("train", help="train a model on the CCNet dataset (see data_prep/train.py)")

@@ -267,20 +267,41 @@ def test_the_rig_sees_past_a_file_rest_pose(data_dir, checkpoint):
     assert np.abs(plain[1].to_model(turned).rotations - plain[0].to_model(seed).rotations).max() > 0.5
 
 
-@pytest.mark.parametrize("key", ["cmu", "hdm05"])
-def test_a_vicon_seed_reaches_the_network_as_the_dataset_built_it(data_dir, checkpoint, key):
-    """A seed file with all 25 joints keeps its own rest pose, so its frame vectors equal the
-    dataset's for the same clip: the network sees what it was trained on (aligned to the mean
-    rest, a CMU walk's rotations were 0.8 standard deviations off)."""
+@pytest.mark.parametrize("key", ["cmu", "hdm05", "bandai"])
+def test_a_seed_reaches_the_network_as_the_dataset_built_it(data_dir, checkpoint, key):
+    """A seed file with all 25 joints keeps its own rest pose, and a Bandai file takes the
+    dataset's re-basing (known_rests.json) and its made-up joints, so its frame vectors equal
+    the dataset's for the same clip: the network sees what it was trained on (aligned to the
+    mean rest, a CMU walk's rotations were 0.8 standard deviations off, a Bandai walk's 1.1)."""
     from data_prep.ccnet_dataset import DatasetConfig, build_dataset
     from mocapviz.features.ccnet import motion_features
     from mocapviz.skeleton import map_to_ccnet25
     from mocapviz.tasks.generate_bvh import seed_rig
     model, norm, meta = checkpoint
-    seed_file, asf = seed_paths(data_dir, key)
+    ds = build_dataset(DatasetConfig.quick(), progress=False)
+    if key == "bandai":  # a walk the quick dataset holds
+        clips = ds.clips[(ds.clips.source == "bandai") & (ds.clips.description == "walk")]
+        seed_file, asf = str(next((data_dir / "bandai").glob(f"*/{clips['clip'].iloc[0]}.bvh"))), None
+    else:
+        seed_file, asf = seed_paths(data_dir, key)
     seed = load_seed(seed_file, asf).resample(60)[:200]
     rig = seed_rig(seed, map_to_ccnet25(seed.skeleton.names, None), meta["dataset"], norm)
     ours = motion_features(rig.to_model(seed), 60).x
-    ds = build_dataset(DatasetConfig.quick(), progress=False)
     theirs = ds.clip_arrays(ds.clip_row(Path(seed_file).stem))["x"][:len(ours)]
     np.testing.assert_allclose(norm.norm_x(ours), norm.norm_x(theirs), atol=1e-3)
+
+
+def test_known_rests_are_current_and_only_match_their_skeleton(data_dir, tmp_path):
+    """known_rests.json is what ``python -m data_prep known-rests`` writes from the data, and
+    it matches a Bandai take but not a CMU skeleton."""
+    from data_prep.ccnet_dataset import write_known_rests
+    from mocapviz.features.ccnet_joints import KNOWN_RESTS_FILE, known_alignment
+    from mocapviz.skeleton import map_to_ccnet25
+    fresh = write_known_rests(data_dir, tmp_path / "known_rests.json")
+    assert json.loads(fresh.read_text()) == json.loads(KNOWN_RESTS_FILE.read_text())
+    bandai = load_seed(data_dir / BANDAI_WALK[0])
+    a = known_alignment(bandai.skeleton, map_to_ccnet25(bandai.skeleton.names))
+    assert a is not None and len(a) == 21
+    assert all(np.allclose(m @ m.T, np.eye(3), atol=1e-6) for m in a.values())   # rotations
+    cmu = load_seed(data_dir / CMU_WALK[0])
+    assert known_alignment(cmu.skeleton, map_to_ccnet25(cmu.skeleton.names)) is None

@@ -20,7 +20,9 @@ four of the 25 joints. Two steps fix that, both leaving every FK joint position 
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -150,3 +152,25 @@ def complete_ccnet25(motion: Motion) -> Motion:
     meta = motion._derived_meta()
     meta.pop("channels", None)
     return replace(motion, skeleton=Skeleton(tuple(order), parents, offsets, ends), rotations=rot, meta=meta)
+
+
+# The rest re-basings the training data used for skeletons that are not VICON's (Bandai's), so
+# that a user's file on such a skeleton reaches a model exactly as the dataset built it:
+# written by ``python -m data_prep known-rests`` from the data (a few numbers per joint).
+KNOWN_RESTS_FILE = Path(__file__).with_name("known_rests.json")
+
+
+def known_alignment(skeleton: Skeleton, joint_map: dict[str, str], tol: float = 0.01,
+                    path: Path = KNOWN_RESTS_FILE) -> dict[str, np.ndarray] | None:
+    """Model joint -> (3, 3) rest re-basing A (:func:`rest_alignment`) of a known training
+    skeleton whose mapped joints' offsets (metres, the root's excepted) match ``skeleton``'s
+    (file joint -> model joint ``joint_map``) within ``tol`` (Bandai's takes differ by up to
+    0.4 mm in a bone; the dataset re-bases them all alike); None for any other skeleton."""
+    if not path.is_file():
+        return None
+    offsets = {m: skeleton.offsets[skeleton.index(f)] for f, m in joint_map.items() if m != "Hips"}
+    for entry in json.loads(path.read_text()).values():
+        known = entry["offsets"]
+        if set(known) == set(offsets) and all(np.abs(np.asarray(known[m]) - offsets[m]).max() <= tol for m in known):
+            return {m: np.asarray(a, dtype=np.float64).reshape(3, 3) for m, a in entry["alignment"].items()}
+    return None

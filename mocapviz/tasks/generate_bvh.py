@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapviz.features.ccnet import FeatureLayout, heading_angles, motion_features
+from mocapviz.features.ccnet_joints import known_alignment
 from mocapviz.features.motion_types import one_hot
 from mocapviz.io.asfamc import read_amc
 from mocapviz.io.bvh import read_bvh
@@ -127,10 +128,17 @@ def seed_rig(seed: Motion, names: dict, dataset_meta: dict, normaliser) -> Model
     model's joints. A file with every model joint (a VICON skeleton, as HDM05's and CMU's) keeps
     its own rest pose, as the training data did: aligned to the mean training rest instead, a
     CMU walk's rotations came out 0.8 standard deviations from the dataset's for the same file.
+    A skeleton the training data had under another rest (Bandai's) takes the dataset's re-basing
+    (:func:`mocapviz.features.ccnet_joints.known_alignment`): aligned to the mean training rest
+    instead, a Bandai walk's rotations came out 1.1 standard deviations from the dataset's.
     Other skeletons are aligned to the mean training rest (:class:`ModelRig`)."""
     joints = dataset_meta["joint_names"]
-    own_rest = set(names.values()) == set(joints)
-    return ModelRig(seed, names, joints, dataset_meta["parents"], canonical_rest=None if own_rest else mean_rest(normaliser),
+    if set(names.values()) == set(joints):
+        return ModelRig(seed, names, joints, dataset_meta["parents"])
+    known = known_alignment(seed.skeleton, names)
+    if known is not None:
+        return ModelRig(seed, names, joints, dataset_meta["parents"], alignment=known)
+    return ModelRig(seed, names, joints, dataset_meta["parents"], canonical_rest=mean_rest(normaliser),
                     rotation_stats=rotation_stats(normaliser, len(joints)))
 
 
@@ -186,8 +194,8 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
         feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
         seed_traj=feats.traj[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
         progress=progress)
-    gen_m = _scaled(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,
-                               include_seed=False), 1 / size)
+    gen_m = rig.expressible(_scaled(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading,
+                                               ik=ik, include_seed=False), 1 / size))
     out = _concat(seed60, rig.from_model(gen_m))
     return SeedGeneration(out, n_seed, gen_m, rig)
 

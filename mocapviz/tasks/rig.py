@@ -9,9 +9,11 @@ joint, :func:`mocapviz.skeleton.map_to_ccnet25`) the file's joints are of three 
   motion. A model bone that spans such joints is their composed chain, so it keeps its length
   and shape whatever the model does;
 - **missing** model joints (Bandai has no ``LHipJoint``, ``LowerBack``, ``Neck1``): made up as
-  a joint that takes the whole file bone to its one model child, the child sitting at zero
-  offset below it. The made-up joint's rotation then moves nothing (its only child is at its
-  own position), so whatever the model writes there is lost without changing any position.
+  the training data made them up (:func:`mocapviz.features.ccnet_joints.complete_ccnet25`, so
+  that a seed reaches the network as the dataset built the same file): identity rotation, and
+  either at zero length on their parent (``zero_length``: the hip stubs and LowerBack, the child
+  taking the whole file bone) or halfway along the file bone (Neck1); a missing leaf (a toe) at
+  its parent's end site. Positions of the mapped joints are unchanged.
 
 Rest pose: a file's local rotations are relative to *its* rest pose (Bandai's lies along X,
 Mixamo's stands straight-legged, CMU's splays the legs), and a model reads them as relative to
@@ -22,7 +24,10 @@ turns the model's rest directions of its bones onto the file's (a best fit, scip
 parent's alignment where it has one, so that twist is carried down the chain, then turned
 about the bone by the twist that brings the reference motion's rotations nearest the
 training statistics when those are given, since a straight rest bone cannot show its twist;
-its parent's where it has none). The model joint's global rotation is then the file joint's times A_c, and
+its parent's where it has none). A skeleton the training data had (Bandai's) can instead be
+given the alignment its dataset used (``alignment``: model joint -> the A of
+:func:`mocapviz.features.ccnet_joints.rest_alignment`), so that its frame vectors are exactly the
+dataset's. The model joint's global rotation is then the file joint's times A_c, and
 the model skeleton's offsets are the file's bones turned by A_c^T: the file's bone lengths in
 the training skeletons' rest directions, which is what c^s shows the model.
 
@@ -38,10 +43,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from mocapviz.features.ccnet_joints import ZERO_LENGTH_JOINTS
 from mocapviz.heading import shortest_arc
 from mocapviz.kinematics import global_to_local
 from mocapviz.motion import Motion
-from mocapviz.rotations import matrix_to_rotvec, rotvec_to_matrix
+from mocapviz.rotations import matrix_to_rotvec
 from mocapviz.skeleton import Skeleton, SkeletonMapError
 
 
@@ -55,15 +61,17 @@ class ModelRig:
     ``joint_map``: file joint name -> model joint name; ``names``, ``parents``: the model's
     joint tree (topological order, root first); ``canonical_rest`` (J, 3): the model's rest
     joint positions (metres, root at the origin) that the file's rest is aligned to (None:
-    the file's own rest pose, no alignment); ``rotation_stats``: the model's training mean and
-    standard deviation (J, 3) of each joint's local exp map. With them a made-up joint takes its
-    mean rotation when a file motion goes to the model (so the file bone's rotation is split
-    between it and its child as in training), and a joint aligned along one bone gets the twist
-    about that bone (which a rest pose cannot show) that brings the reference motion's local
-    rotations closest to training (z-scores, greedily from the root down)."""
+    the file's own rest pose, no alignment); ``alignment``: model joint name -> (3, 3) rest
+    re-basing of its file joint as :func:`mocapviz.features.ccnet_joints.rest_alignment` gives it
+    (instead of ``canonical_rest``); ``rotation_stats``: the model's training mean and standard
+    deviation (J, 3) of each joint's local exp map: with them a joint aligned along one bone gets
+    the twist about that bone (which a rest pose cannot show) that brings the reference motion's
+    local rotations closest to training (z-scores, greedily from the root down);
+    ``zero_length``: model joints that, made up, sit on their parent (the rest halfway along
+    the file bone)."""
 
     def __init__(self, reference: Motion, joint_map: dict[str, str], names, parents, canonical_rest=None,
-                 rotation_stats=None):
+                 rotation_stats=None, alignment: dict | None = None, zero_length=ZERO_LENGTH_JOINTS):
         sk = self.file_skeleton = reference.skeleton
         self.names, self.parents = tuple(names), np.asarray(parents, dtype=np.int64)
         by_model = {m: sk.index(f) for f, m in joint_map.items()}
@@ -78,9 +86,16 @@ class ModelRig:
             self.fixed_trans[j] = t.mean(axis=0)
         identity = np.broadcast_to(np.eye(3), (len(self.names), 3, 3))
         self.stats = None if rotation_stats is None else [np.asarray(a, dtype=np.float64) for a in rotation_stats]
-        self.made_up_rot = identity if self.stats is None else rotvec_to_matrix(self.stats[0])
+        self.zero_length = set(zero_length)
         self.align = identity.copy()  # A_c per model joint
-        if canonical_rest is not None:
+        if alignment is not None:  # rebase_rest's A maps the file's rest frames onto the model's: A_c = A^T
+            for c, name in enumerate(self.names):
+                if self.source[c] >= 0:
+                    self.align[c] = np.asarray(alignment[name], dtype=np.float64).reshape(3, 3).T
+            for c in range(1, len(self.names)):  # made-up joints turn with their parent
+                if self.source[c] < 0:
+                    self.align[c] = self.align[self.parents[c]]
+        elif canonical_rest is not None:
             self.align = self._alignments(np.asarray(canonical_rest, dtype=np.float64), reference)
         self.skeleton = Skeleton(self.names, self.parents, *self._model_rest())
 
@@ -120,10 +135,11 @@ class ModelRig:
                 a = self._nearest_mapped_above(c)
                 v, rot = self._chain_pose(int(src[a]), int(src[c]))
                 pos[c], frame[c] = pos[a] + frame[a] @ v, frame[a] @ rot
-        for c in range(n - 1, 0, -1):  # made-up joints sit on their child (a leaf: its parent's end site)
+        for c in range(n - 1, 0, -1):  # made-up joints: on their parent, halfway, or (a leaf) at its end site
             if src[c] < 0:
-                kids = np.flatnonzero(self.parents == c)
-                pos[c] = pos[kids[0]] if len(kids) else pos[self.parents[c]] + frame[self.parents[c]] @ self._tip(c)
+                kids, up = np.flatnonzero(self.parents == c), pos[self.parents[c]]
+                pos[c] = (up if self.names[c] in self.zero_length else (up + pos[kids[0]]) / 2) if len(kids) \
+                    else up + frame[self.parents[c]] @ self._tip(c)
         return pos, frame
 
     def _alignments(self, canonical: np.ndarray, reference: Motion) -> np.ndarray:
@@ -138,7 +154,7 @@ class ModelRig:
             base = align[self.parents[c]] if c else np.eye(3)
             if src[c] < 0:
                 align[c] = base
-                model_global[:, c] = model_global[:, self.parents[c]] @ self.made_up_rot[c]
+                model_global[:, c] = model_global[:, self.parents[c]]
                 continue
             model_dirs, file_dirs = [], []
             for k in kids[c]:  # each bone's direction: the first joint down its chain 5 cm away
@@ -186,8 +202,8 @@ class ModelRig:
 
     def _model_rest(self):
         """Offsets (J, 3) and end sites of the model skeleton: the file's bones turned by the
-        alignment A^T; a made-up joint takes the whole file bone to its one model child, which
-        sits at zero offset below it (so the made-up joint's rotation moves nothing)."""
+        alignment A^T; the file bone through a made-up joint goes to its one model child (on a
+        ``zero_length`` joint) or half to each (module docstring)."""
         names, parents, src, fsk, align = self.names, self.parents, self.source, self.file_skeleton, self.align
         offsets = np.zeros((len(names), 3))
         kids = [np.flatnonzero(parents == c).tolist() for c in range(len(names))]
@@ -201,10 +217,14 @@ class ModelRig:
                     offsets[c] = align[parents[c]].T @ self._tip(c)
                 continue
             above = self._nearest_mapped_above(c)
-            top = c
-            while parents[top] != above:  # the made-up joint right below it takes the whole bone
-                top = parents[top]
-            offsets[top] = align[above].T @ self._chain(int(src[above]), int(src[c]))
+            bone = align[above].T @ self._chain(int(src[above]), int(src[c]))
+            between, j = [], int(parents[c])
+            while j != above:  # made-up joints in between, each with this one child
+                between.append(j)
+                j = int(parents[j])
+            takers = [j for j in between if names[j] not in self.zero_length] + [c]
+            for j in takers:  # equal shares of the bone (Neck1 and Head: half each)
+                offsets[j] = bone / len(takers)
             ends += [(c, tuple(align[c].T @ np.asarray(off))) for j, off in fsk.end_sites if j == src[c]]
             file_kids = fsk.children(int(src[c]))
             if file_kids and not kids[c]:  # children dropped (hands): an end site where the first was
@@ -214,13 +234,23 @@ class ModelRig:
     def to_model(self, motion: Motion) -> Motion:
         """The model-skeleton motion (same frames) of a motion on the file's skeleton: mapped
         joints take their file joint's global rotation (times A_c), made-up joints their
-        parent's times ``made_up_rotations``."""
+        parent's."""
         p, g = motion.global_pose()
         gm = np.empty((motion.n_frames, len(self.names), 3, 3))
         for c, s in enumerate(self.source):
-            gm[:, c] = g[:, s] @ self.align[c] if s >= 0 else gm[:, self.parents[c]] @ self.made_up_rot[c]
+            gm[:, c] = g[:, s] @ self.align[c] if s >= 0 else gm[:, self.parents[c]]
         return Motion(self.skeleton, global_to_local(gm, self.parents), p[:, self.source[0]], motion.fps,
                       name=motion.name, meta={"source": motion.meta.get("source", "")})
+
+    def expressible(self, motion: Motion) -> Motion:
+        """A model-skeleton motion with the made-up joints' local rotations at identity: the
+        file has no joint to carry them (with them, FK of the file would miss the model's
+        joints by up to ~1 cm at a made-up neck), and identity is what the training data of
+        such skeletons had (:func:`mocapviz.features.ccnet_joints.complete_ccnet25`)."""
+        rot = motion.rotations.copy()
+        rot[:, self.source < 0] = np.eye(3)
+        return Motion(motion.skeleton, rot, motion.root_positions, motion.fps, name=motion.name,
+                      meta=dict(motion.meta))
 
     def from_model(self, motion: Motion) -> Motion:
         """The file-skeleton motion of a model-skeleton motion: exact at the mapped joints
