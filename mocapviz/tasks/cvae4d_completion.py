@@ -33,14 +33,28 @@ mean) and the average adult beta, minimising
 - ``L_time``: the mean squared difference between decoded and observed timestamps at the
   observed frames (normalised Phi units, as in training).
 
-The weights are **GradNorm's** (:mod:`mocapviz.training.gradnorm`, the paper's [42], alpha 1.5),
-balanced at the latent z, the one parameter every task depends on. A task whose data is absent
-(no points: markers only; no markers: points only) is not in the task list: its weight is zero.
+**The weights.** Eq. 6's adaptive weights are the paper's [42], GradNorm
+(:mod:`mocapviz.training.gradnorm`, alpha 1.5); ``weighting="gradnorm"`` balances them at the
+latent z, the one parameter every task depends on (one output tensor carries chi and beta, so
+each task's gradient sees every path). In a 100-step fit it hurts: the time loss starts near
+its optimum, its relative rate stays ~1, and GradNorm hands it most of the weight while the
+spatial terms fall fast and lose theirs (the two GradNorm rows of ``results/cvae4d_completion.csv``
+are worse than their fixed-weight twins). So the default, ``weighting="fixed"``, gives every
+present task the weight 1 (m^2 for the spatial terms, normalised Phi^2 for time: all of the same
+order at the start). Either way a task whose data is absent (no points: markers only; no
+markers: points only) is not in the task list: its weight is zero.
 beta is kept inside the shape fit's bounds (``BETA_BOUNDS``) after every step.
 
 **The error** (:func:`chamfer_error_mm`): the symmetric Chamfer distance between the completed
-and the true *full* meshes (every anny vertex, all 100 frames), the mean of the two directions'
-mean nearest-vertex distances, averaged over frames, in mm (:func:`chamfer`, a KD-tree).
+and the true full meshes over all 100 frames, the mean of the two directions' mean
+nearest-vertex distances, averaged over frames, in mm (:func:`chamfer`, a KD-tree). Both
+meshes are compared at the same :data:`N_EVAL_VERTICES` farthest-point vertices: spread evenly
+over the surface like scan points, where anny's own vertices crowd the hands and face (a
+vertex average weighs those more: notebook 15 prints both on one fit), and ~10x cheaper.
+
+Why not :func:`mocapviz.tasks.cvae4d_fit.fit_latent` (branch ``pred``): it minimises one summed
+loss; completion needs the per-task losses (GradNorm), per-step frame and point batches and
+anny's per-parameter beta bounds. The fixed-weight path is that loop with this loss.
 """
 
 from __future__ import annotations
