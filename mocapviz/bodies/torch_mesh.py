@@ -56,6 +56,10 @@ class ChiMesher(torch.nn.Module):
         self.register_buffer("weights", w[:, self.bones].to(dtype))
         self.register_buffer("gamma_scale", torch.as_tensor(np.asarray(gamma_scale, dtype=np.float64)).to(dtype))
         self.register_buffer("identity_6d", torch.as_tensor(IDENTITY_6D).to(dtype))
+        # a subset's slice of anny's template and blendshapes, taken once (slicing the (K, V, 3)
+        # blendshapes on every call cost more than the skinning of a 1,000-vertex subset)
+        self._rest_slice = None if vertices is None else (body.anny.template_vertices[idx],
+                                                          body.anny.blendshapes[:, idx])
 
     @property
     def n_vertices(self) -> int:
@@ -69,8 +73,8 @@ class ChiMesher(torch.nn.Module):
 
         anny = self.body.anny
         coeffs = self.body.blendshape_coefficients(beta)
-        verts = apply_linear_blendshape(anny.template_vertices[self.vertex_index],
-                                        anny.blendshapes[:, self.vertex_index], coeffs)
+        template, blendshapes = self._rest_slice or (anny.template_vertices, anny.blendshapes)
+        verts = apply_linear_blendshape(template, blendshapes, coeffs)
         C = self.body._C
         return (verts @ C.T).to(self.dtype), self.body.rest_joints(beta).to(self.dtype)
 
