@@ -4,7 +4,7 @@ paper §5 prediction, §6 completion).
 Both applications optimise the decoder's inputs, not its weights: chi_hat = decoder(z, beta) is
 a whole time-stamped cycle, and a loss compares it (or its meshes) with what was observed.
 
-- :func:`interpolate_chi`: chi_hat (B, N, C) read at given times (B, T) in seconds, linearly
+- :func:`~mocapviz.bodies.torch_mesh.interpolate_chi` (re-exported here): chi_hat (B, N, C) read at given times (B, T) in seconds, linearly
   between the two decoded frames around each time by the decoded timestamps Phi; differentiable
   in chi_hat's values and in its timestamps (the observations' *times* are matched, not their
   frame indices: a decoded cycle may be shorter or longer than the observed one);
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import torch
 
-from mocapviz.bodies.representation import PHI_SCALE
+from mocapviz.bodies.torch_mesh import interpolate_chi  # noqa: F401 - re-exported: part of the fitting API
 
 
 @dataclass(frozen=True)
@@ -46,23 +46,6 @@ class FitResult:
     losses: list           # total loss per step (summed over the batch)
     final: torch.Tensor    # (B,) data loss of each sequence at the final (z, beta)
     seconds: float
-
-
-def interpolate_chi(chi: torch.Tensor, times: torch.Tensor) -> torch.Tensor:
-    """chi (B, N, C) read at ``times`` (B, T) in seconds -> (B, T, C).
-
-    Each channel is linear between the two frames whose timestamps (Phi x PHI_SCALE, made
-    non-decreasing by a running maximum) bracket the time; times outside the decoded span take
-    the first or last frame. The Phi channel itself comes out as the time when inside the span."""
-    t = torch.cummax(chi[..., -1] * PHI_SCALE, dim=-1).values  # (B, N)
-    times = torch.as_tensor(times, dtype=chi.dtype)
-    n = chi.shape[1]
-    hi = torch.searchsorted(t.detach().contiguous(), times.detach().contiguous()).clamp(1, n - 1)
-    lo = hi - 1
-    t0, t1 = t.gather(1, lo), t.gather(1, hi)
-    w = ((times - t0) / (t1 - t0).clamp_min(1e-9)).clamp(0.0, 1.0)[..., None]
-    idx = lambda i: i[..., None].expand(-1, -1, chi.shape[-1])  # noqa: E731
-    return chi.gather(1, idx(lo)) * (1 - w) + chi.gather(1, idx(hi)) * w
 
 
 def fit_latent(model, loss_fn, z0: torch.Tensor, beta0: torch.Tensor, cfg: FitConfig = FitConfig(),
