@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from mocapviz.bodies.representation import PHI_SCALE
-from mocapviz.bodies.torch_mesh import time_grid
+from mocapviz.features.chi_time import time_grid
 from mocapviz.models.residual_sup import ResidualSup, ResidualSupConfig
 from mocapviz.tasks.cvae4d_prediction import (PredictionSetup, Predictions, error_table, observed_window,
                                               predict_residual)
@@ -118,7 +118,8 @@ def test_training_learns_a_drift_and_round_trips(tmp_path):
     back, meta = load_residual_sup(tmp_path / "r.safetensors")
     assert back.cfg == model.cfg and meta["note"] == "test"
     obs = torch.as_tensor(ds.chi[:, :10, :3])
-    torch.testing.assert_close(back(obs, back.one_hot(["walk", "run"]), 5), model(obs, model.one_hot(["walk", "run"]), 5))
+    labels = model.one_hot(["walk", "run"])
+    torch.testing.assert_close(back(obs, labels, 5), model(obs, labels, 5))
 
 
 def test_ordering_over_predicted_times():

@@ -29,7 +29,7 @@ import pandas as pd
 import torch
 
 from mocapviz.bodies.representation import PHI_SCALE
-from mocapviz.bodies.torch_mesh import chi_times, interpolate_chi, time_grid
+from mocapviz.features.chi_time import chi_times, interpolate_chi, time_grid
 from mocapviz.tasks.cvae4d_fit import FitConfig, FitResult, fit_to_vertices
 from mocapviz.training.residual_sup import grid_frames, labels_for, n_observed
 

@@ -1,7 +1,7 @@
 """Train the Residual-sup baseline (:mod:`mocapviz.models.residual_sup`) on the 4D dataset's
 training cycles, as the 4D motion paper's §5 prepares it: every training cycle resampled to a
 fixed 100 fps (its frames read at k / 100 s by their real timestamps,
-:func:`mocapviz.bodies.torch_mesh.interpolate_chi`), the first ``observed_s`` = 0.25 s given,
+:func:`mocapviz.features.chi_time.interpolate_chi`), the first ``observed_s`` = 0.25 s given,
 the rest of the cycle predicted.
 
 Loss: mean squared error over the predicted frames of each cycle (Theta and Gamma of chi, frames
@@ -28,7 +28,7 @@ from safetensors.torch import save_file
 from tqdm.auto import tqdm
 
 from mocapviz.atomic import atomic_path
-from mocapviz.bodies.torch_mesh import chi_times, interpolate_chi, time_grid
+from mocapviz.features.chi_time import chi_times, interpolate_chi, time_grid
 from mocapviz.models.residual_sup import ResidualSup, ResidualSupConfig
 from mocapviz.training.checkpoint import decode_metadata
 
