@@ -16,7 +16,6 @@ build (its table is not the committed one: ``--out`` it elsewhere).
 from __future__ import annotations
 
 import argparse
-import csv
 import shutil
 import time
 from pathlib import Path
@@ -49,7 +48,7 @@ def train_baseline(a) -> int:
 
     from data_prep.catalog import CACHE_DIR
     from data_prep.zoo import ZOO_DIR
-    from mocapviz.training.cvae4d import dataset_meta, split_indices
+    from mocapviz.training.cvae4d import dataset_meta, split_indices, write_log
     from mocapviz.training.residual_sup import ResidualSupTrainConfig, save_residual_sup, train
 
     ds = _dataset(a)
@@ -66,10 +65,7 @@ def train_baseline(a) -> int:
     run = CACHE_DIR / "runs" / f"pred_{BASELINE}"
     run.mkdir(parents=True, exist_ok=True)
     save_residual_sup(run / "model.safetensors", model, meta)
-    with open(run / "losses.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, list(dict.fromkeys(k for r in rows for k in r)), restval="")
-        w.writeheader()
-        w.writerows(rows)
+    write_log(run / "losses.csv", rows)
     held = [r["held_loss"] for r in rows if "held_loss" in r]
     print(f"{BASELINE}: {cfg.steps} steps, {cpu / 60:.1f} CPU min ({rows[-1]['seconds']:.0f} s wall); last loss "
           f"{rows[-1]['loss']:.5f}, held-out {held[-1] if held else float('nan'):.5f}; run {run}")

@@ -60,6 +60,7 @@ from IPython.display import Image, display
 from data_prep.body4d_dataset import Body4DConfig, build_dataset
 from data_prep.sources import REPO_ROOT
 from mocapviz.bodies import body_model
+from mocapviz.bodies.torch_mesh import ChiMesher
 from mocapviz.tasks.cvae4d_eval import on_scale
 from mocapviz.tasks.cvae4d_prediction import PredictionSetup, error_table, ordering, predict_cvae, prediction_errors
 from mocapviz.training.cvae4d import data_fingerprint, make_mesher, split_indices
@@ -210,8 +211,6 @@ y0 = float(ds.cycles["root0_y"].iloc[i])
 def on_ground(chi, beta):
     return mesher_full(chi[None, :k], beta[None], root0=torch.tensor([[0.0, y0, 0.0]]))[0].numpy()
 
-
-from mocapviz.bodies.torch_mesh import ChiMesher  # noqa: E402
 
 mesher_full = ChiMesher(body, ds.gamma_scale)
 err = {n: float(pred.errors[n][SHOW, :k].mean()) for n in pred.errors}
