@@ -136,3 +136,22 @@ def test_ordering_over_predicted_times():
     assert o["first_t_below"] == pytest.approx(0.2) and o["last_t_below"] == pytest.approx(0.3)
     assert o["crossings"] == [pytest.approx(0.2)]
     assert ordering(tab, "cvae", "rs")["crossings"] == [pytest.approx(0.2), pytest.approx(0.4)]
+
+
+REPO = __import__("pathlib").Path(__file__).resolve().parent.parent
+
+
+def test_committed_table_and_baseline():
+    from mocapviz.zoo import load_residual_sup
+
+    tab = pd.read_csv(REPO / "results" / "cvae4d_prediction.csv")
+    assert list(tab.columns) == ["model", "t_s", "mean_mm", "n", "observed"]
+    assert set(tab["model"]) == {"cvae4d_phase2", "residual_sup"}
+    for _, g in tab.groupby("model"):
+        assert np.all(np.diff(g["t_s"]) > 0) and np.all(np.diff(g["n"]) <= 0)  # fewer cycles as t grows
+        np.testing.assert_array_equal(g["observed"], g["t_s"] < 0.25 - 1e-9)
+    rs = tab[tab["model"] == "residual_sup"]
+    assert (rs.loc[rs["observed"], "mean_mm"] == 0).all()  # its input
+    assert (rs.loc[~rs["observed"], "mean_mm"] > 0).all()
+    model, meta = load_residual_sup("residual_sup", REPO / "models" / "zoo")
+    assert meta["train_config"]["hidden"] == model.cfg.hidden and meta["command"].startswith("python -m data_prep")
