@@ -1,4 +1,4 @@
-"""``python -m data_prep {catalog,build,download,train,train-cvae,apps-tables}``: see ``--help`` of each subcommand."""
+"""``python -m data_prep {catalog,build,download,train,train-cvae,cvae4d-prediction,apps-tables}``: see ``--help`` of each subcommand."""
 
 from __future__ import annotations
 
@@ -76,6 +76,11 @@ def _train_cvae(args) -> int:
     return run(args)
 
 
+def _cvae4d_prediction(args) -> int:
+    from data_prep.cvae4d_prediction import run
+    return run(args)
+
+
 def parser() -> argparse.ArgumentParser:
     from data_prep.download import DEFAULT_DEST
     p = argparse.ArgumentParser(prog="python -m data_prep", description=__doc__)
@@ -125,6 +130,12 @@ def parser() -> argparse.ArgumentParser:
                        "reconstruction table (see data_prep/train_cvae.py)")
     add_cvae_arguments(v)
     v.set_defaults(func=_train_cvae)
+
+    from data_prep.cvae4d_prediction import add_arguments as add_prediction_arguments
+    pr = sub.add_parser("cvae4d-prediction", help="4D motion prediction (paper 2 §5): train Residual-sup or write "
+                        "results/cvae4d_prediction.csv (see data_prep/cvae4d_prediction.py)")
+    add_prediction_arguments(pr)
+    pr.set_defaults(func=_cvae4d_prediction)
     return p
 
 

@@ -91,3 +91,12 @@ def load_cvae4d(name_or_file: str, zoo_dir=None):
 
     path = committed_path(name_or_file, zoo_dir) if zoo_dir is not None else find_checkpoint(name_or_file)
     return load_cvae(path)
+
+
+def load_residual_sup(name_or_file: str = "residual_sup", zoo_dir=None):
+    """(model, meta) of a committed Residual-sup baseline (4D motion paper §5), from ``zoo_dir`` or
+    the :func:`search_path`; trained by ``python -m data_prep cvae4d-prediction --train-baseline``."""
+    from mocapviz.training.residual_sup import load_residual_sup as load
+
+    path = committed_path(name_or_file, zoo_dir) if zoo_dir is not None else find_checkpoint(name_or_file)
+    return load(path)
