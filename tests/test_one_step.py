@@ -50,3 +50,17 @@ def test_a_network_that_copies_its_input_scores_copy_last(ds):
     # real motion is smooth at 60 fps: constant velocity predicts the joint angles better than
     # standing still, and a frame moves far less than one training standard deviation
     assert table.loc["rot", "extrapolate"] < table.loc["rot", "copy_last"] < 0.1
+
+
+def test_linear_code_residual_by_hand():
+    from mocapviz.tasks.one_step import linear_code_residual
+    rng = np.random.default_rng(0)
+    # two independent unit directions with std 3 and 1 in 4 channels: a 1-number code keeps the
+    # first, leaving the second's energy (1 per frame over 4 channels: RMS 1/2); 2 numbers keep all
+    n = 20000
+    basis = np.array([[1, 1, 1, 1], [1, -1, 1, -1]]) / 2.0
+    x = np.stack([3 * rng.standard_normal(n), rng.standard_normal(n)], axis=1) @ basis
+    r = linear_code_residual(x, [0, 1, 2])
+    assert r[0] == pytest.approx(np.sqrt(10 / 4), rel=0.02)
+    assert r[1] == pytest.approx(0.5, rel=0.02)
+    assert r[2] == pytest.approx(0.0, abs=1e-9)

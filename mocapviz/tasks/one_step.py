@@ -62,3 +62,14 @@ def one_step_table(model, norm, ds, rows) -> pd.DataFrame:
             for c in COLUMNS:
                 acc[k][c].append(errs[c][:, sl][:, keep].ravel())
     return pd.DataFrame({c: {k: float(np.median(np.concatenate(v[c]))) for k, v in acc.items()} for c in COLUMNS})
+
+
+def linear_code_residual(x_norm: np.ndarray, widths) -> dict[int, float]:
+    """RMS (per channel, normalised units) of what a best linear code of ``k`` numbers cannot
+    carry of frames ``x_norm`` (N, D), for each ``k`` in ``widths``: the PCA residual. A network
+    whose every layer has C channels passes each frame through C numbers (after CCNet's 1x1
+    encoder); with C below the frames' effective dimension it cannot repeat its input frame."""
+    x = np.asarray(x_norm, dtype=np.float64)
+    x = x - x.mean(axis=0)
+    energy = np.linalg.svd(x, compute_uv=False) ** 2
+    return {int(k): float(np.sqrt(max(energy[int(k):].sum(), 0.0) / x.size)) for k in widths}
