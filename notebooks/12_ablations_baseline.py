@@ -46,14 +46,14 @@ FIG_DIR = "../figures"
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
 import pandas as pd
 import torch
 from IPython.display import display
 
 from data_prep.sources import REPO_ROOT
 from data_prep.train_cvae import ABLATION_TABLE, TABLE, TABLE_MODELS, checkpoint_id
-from mocapviz.tasks.cvae4d_eval import boxplot_errors, boxplot_table, error_table
+from mocapviz.tasks.cvae4d_eval import boxplot_table, error_table, ordering_steps
+from mocapviz.training.cvae4d import load_cvae
 from mocapviz.viz import save_figure
 from mocapviz.zoo import find_checkpoint
 
@@ -129,43 +129,87 @@ for t in sets:
 #   percent (printed above).
 
 # %% [markdown]
-# ## Fig. 3 and Fig. 4: latent dimension and KL weight (all test cycles together)
+# ## Fig. 3 and Fig. 4: latent dimension and KL weight
 #
-# Short phase-1 runs of each setting, compared with each other, not with the committed phase-1
-# model. At CPU scale: `python -m data_prep train-cvae --ablations` (the same epochs for every
-# model) writes one row per test cycle to `results/cvae4d_ablations.csv`. Where that file is
-# absent (this session's CPU went to the two committed phases), the figures come from runs of
-# `CVAE_CONFIGS["quick_phase1"]` trained here on the quick dataset: a demonstration of the
-# figures on a few dozen training cycles, not a result.
+# Seven short phase-1 runs on the full dataset, identical but for the ablated value: latent
+# 8 / 16 / 32 / 128 at KL 0.01, KL 0.001 / 0.1 at latent 64, and latent 64 at KL 0.01, the
+# reference of both figures, trained the same short way (so its boxes are not the committed
+# `cvae4d_phase1`'s, which trained longer). `python -m data_prep train-cvae --ablations` trains
+# them on one CPU thread (their checkpoints stay in `cache/runs/abl_*`, uncommitted) and writes
+# `results/cvae4d_ablations.csv`: per ablation, value and test set the Tukey summary of the
+# per-cycle mean vertex errors (mm), and "all", every test cycle together. Both modes read that
+# table; re-making it is that command, not a notebook step. The runs' epochs and the command are
+# printed from the table below.
+#
+# **The paper's reading** (§4.3, Figs. 3-4, on AMASS): "the bigger the latent space dimension,
+# the smaller the error", falling quickly up to 64 and stagnating after, hence 64; "the smaller
+# $\omega_{KL}$, the smaller the reconstruction error", but at 0.001 interpolations are no longer
+# plausible, hence 0.01 as the trade-off. The paper prints no numbers for these figures, so we
+# compare orderings. Its models were trained through both phases, ours through phase 1 only.
 
 # %%
-abl_path = REPO_ROOT / ABLATION_TABLE
-if abl_path.exists():
-    abl = pd.read_csv(abl_path, keep_default_na=False)
-    err = {m: g.error_mm.to_numpy() for m, g in abl.groupby("model")}
-    print(f"{ABLATION_TABLE}: {len(err)} models, {abl.epochs.iloc[0]} phase-1 epochs each, "
-          f"{abl.cycle.nunique()} test cycles of the full dataset")
-else:
-    from data_prep.body4d_dataset import Body4DConfig, build_dataset
-    from data_prep.train_cvae import ABLATIONS
-    from mocapviz.tasks.cvae4d_eval import reconstruction_errors, test_sets
-    from mocapviz.training.cvae4d import CVAE_CONFIGS, split_indices, train, with_overrides
-
-    qds = build_dataset(Body4DConfig.quick())
-    cfg = CVAE_CONFIGS["quick_phase1"]
-    quick_models = {n: train(qds, with_overrides(cfg, **kw), progress=False)[0] for n, kw in ABLATIONS.items()}
-    quick_errors = reconstruction_errors(qds, quick_models)
-    err = {m: np.concatenate([quick_errors[(m, t)] for t in test_sets(qds)]) for m in quick_models}
-    print(f"no {ABLATION_TABLE}: quick runs ({cfg.epochs} epochs each) on the quick dataset, "
-          f"{len(split_indices(qds)[0])} training and {len(next(iter(err.values())))} test cycles")
-fig, (a3, a4) = plt.subplots(1, 2, figsize=(13, 4.2), gridspec_kw=dict(width_ratios=[5, 3]))
-latents = {str(z): err[f"cvae4d_z{z}"] for z in (8, 16, 32, 64, 128)}
-kls = {"0.001": err["cvae4d_kl0.001"], "0.01": err["cvae4d_z64"], "0.1": err["cvae4d_kl0.1"]}
-boxplot_errors(a3, latents, "Fig. 3: latent dimension (KL 0.01, phase 1)", "dim z")
-boxplot_errors(a4, kls, "Fig. 4: KL weight (dim z 64, phase 1)", "ω_KL")
+abl = pd.read_csv(REPO_ROOT / ABLATION_TABLE, keep_default_na=False)
+epochs, n_train = int(abl.epochs.iloc[0]), load_cvae(paths["cvae4d_phase1"])[1]["dataset"]["n_train"]
+n_test = int(abl.loc[abl.test_set == "all", "n"].iloc[0])
+print(f"{ABLATION_TABLE}: {abl.model.nunique()} runs of {epochs} phase-1 epochs each, made by "
+      f"`{abl.command.iloc[0]}`; {n_train} training cycles, {n_test} test cycles")
+figs = {"latent": ("Fig. 3: latent dimension (KL 0.01)", "dim z"),
+        "kl_weight": ("Fig. 4: KL weight (dim z 64)", "ω_KL")}
+abl_sets = ["all", *sets]
+fig, axes = plt.subplots(2, len(abl_sets), figsize=(4.2 * len(abl_sets), 8.4), squeeze=False)
+for row, (ablation, (title, xlabel)) in zip(axes, figs.items()):
+    for ax, t in zip(row, abl_sets):
+        rows = abl[(abl.ablation == ablation) & (abl.test_set == t)].sort_values("value")
+        boxplot_table(ax, rows, [f"{v:g}" for v in rows.value], f"{title}\n'{t}' ({rows.n.iloc[0]} cycles)")
+        ax.set_xlabel(xlabel)
 fig.tight_layout()
 save_figure(fig, fig_dir / "cvae4d_fig03_04_ablations.png")
-display(pd.DataFrame({"mean_mm": {f"z{k}": v.mean() for k, v in latents.items()}
-                      | {f"kl{k}": v.mean() for k, v in kls.items()},
-                      "median_mm": {f"z{k}": np.median(v) for k, v in latents.items()}
-                      | {f"kl{k}": np.median(v) for k, v in kls.items()}}).round(1).T)
+display(abl.pivot_table(index=["ablation", "value"], columns="test_set", values=["median", "mean"]).round(1))
+
+# %% [markdown]
+# ### Does the paper's ordering hold?
+#
+# Read on the medians (the boxes' lines) over all test cycles, with the means beside: Fig. 3
+# holds if every step from 8 up to 64 lowers the error (past 64 the paper sees it stagnate, so
+# 64 -> 128 is printed, not judged); Fig. 4 holds if every larger KL weight raises it. The KL
+# weight's effect also depends on the loss it is weighed against: the paper notes its 0.01 is tied
+# to vertex errors in metres; ours are weighed against phase 1's χ losses under GradNorm weights.
+
+# %%
+PAPER_CYCLES, PAPER_EPOCHS = 13121, 5000  # paper §4.1-4.2: AMASS training cycles, phase-1 epochs
+
+
+def paper_holds(steps, ablation):
+    if ablation == "latent":
+        return bool(steps.loc[steps.high <= 64, "falls"].all())
+    return not steps.falls.any()
+
+
+def ordering_sentence(ablation, t="all"):
+    rows = abl[(abl.ablation == ablation) & (abl.test_set == t)]
+    by = {stat: ordering_steps(rows, stat) for stat in ("median", "mean")}
+    values = " -> ".join(f"{v:g}: {m:.1f} mm" for v, m in zip(rows.sort_values("value").value,
+                                                              rows.sort_values("value")["median"]))
+    holds = {stat: paper_holds(st, ablation) for stat, st in by.items()}
+    steps = ", ".join(f"{lo:g} -> {hi:g} {c:+.1f} %" for lo, hi, c in by["median"][["low", "high", "change_pct"]].values)
+    expected = "falling up to 64" if ablation == "latent" else "rising with the weight"
+    return (f"{figs[ablation][0]}, '{t}' ({rows.n.iloc[0]} cycles), medians {values} ({steps}): the paper's "
+            f"ordering ({expected}) {'holds' if holds['median'] else 'does NOT hold'} on the medians, "
+            f"{'holds' if holds['mean'] else 'does not hold'} on the means."), holds["median"], rows
+
+
+for ablation in figs:
+    sentence, holds, rows = ordering_sentence(ablation)
+    print(sentence)
+    if not holds:
+        spread = rows["median"].max() - rows["median"].min()
+        print(f"  Why not, likely (not tested one by one): short runs, {epochs} phase-1 epochs against the paper's "
+              f"{PAPER_EPOCHS:,} (the committed 400-epoch run's held-out loss was still falling, notebook 11), "
+              f"so a setting that learns more slowly is judged early; {n_train} training cycles against the "
+              f"paper's {PAPER_CYCLES:,}; and the medians differ by {spread:.1f} mm at most, against boxes "
+              f"(IQR) {(rows.q3 - rows.q1).min():.1f}-{(rows.q3 - rows.q1).max():.1f} mm high.")
+    if ablation == "latent":
+        last = ordering_steps(rows).iloc[-1]
+        print(f"  64 -> 128 (the paper: stagnates): {last.change_pct:+.1f} % on the median.")
+    for t in sets:
+        print("   ", ordering_sentence(ablation, t)[0])

@@ -218,3 +218,58 @@ def test_reconstruction_table_shape_and_current_with_the_checkpoints():
     for name in TABLE_MODELS:  # made from the committed files (else: python -m data_prep train-cvae --table)
         assert (t.loc[t.model == name, "checkpoint"] == checkpoint_id(ZOO_DIR / f"{name}.safetensors")).all()
     assert (t.loc[t.model == "pca", "checkpoint"] == "").all()
+
+
+def test_ablation_table_labels_pools_and_summarises():
+    from mocapviz.tasks.cvae4d_eval import ABLATION_COLUMNS, ablation_table, ordering_steps
+
+    errors = {("a", "s1"): np.array([1.0, 2.0, 3.0]), ("a", "s2"): np.array([4.0, 100.0]),
+              ("b", "s1"): np.array([2.0, 2.0, 2.0]), ("b", "s2"): np.array([1.0, 3.0])}
+    t = ablation_table(errors, {"b": [("latent", 64), ("kl_weight", 0.01)], "a": [("latent", 8)]})
+    assert list(t.columns) == list(ABLATION_COLUMNS) and len(t) == 3 * 3  # (a, b as latent, b as KL) x 3 sets
+    assert list(t.ablation) == ["kl_weight"] * 3 + ["latent"] * 6 and list(t.value[3:]) == [8] * 3 + [64] * 3
+    a_all = t[(t.model == "a") & (t.test_set == "all")].iloc[0]
+    # [1, 2, 3, 4, 100]: quartiles 2 and 4, fences -1 and 7, so 100 is outside the whiskers
+    assert (a_all.n, a_all["mean"], a_all["median"], a_all.q1, a_all.q3) == (5, 22.0, 3.0, 2.0, 4.0)
+    assert (a_all.whislo, a_all.whishi) == (1.0, 4.0)
+    kl, lat = t[(t.model == "b") & (t.ablation == "kl_weight")], t[(t.model == "b") & (t.ablation == "latent")]
+    same = list(ABLATION_COLUMNS[2:])
+    assert kl[same].reset_index(drop=True).equals(lat[same].reset_index(drop=True))
+
+    steps = ordering_steps(t[(t.ablation == "latent") & (t.test_set == "all")].iloc[::-1])  # any row order
+    assert steps.to_dict("records") == [dict(low=8.0, high=64.0, low_mm=3.0, high_mm=2.0, change_pct=-33.3,
+                                             falls=True)]
+    means = ordering_steps(t[(t.ablation == "latent") & (t.test_set == "s2")], stat="mean")
+    assert (means.low_mm[0], means.high_mm[0], bool(means.falls[0])) == (52.0, 2.0, True)
+
+
+def test_ablation_table_complete_and_made_by_the_documented_command():
+    import argparse
+
+    from data_prep.sources import REPO_ROOT
+    from data_prep.train_cvae import (ABLATION_COMMAND, ABLATION_EPOCHS, ABLATION_TABLE, TABLE, ablation_command,
+                                      ablation_settings)
+    from mocapviz.tasks.cvae4d_eval import ABLATION_COLUMNS
+
+    path = REPO_ROOT / ABLATION_TABLE
+    assert path.stat().st_size < 200_000
+    t = pd.read_csv(path, keep_default_na=False)
+    assert list(t.columns) == [*ABLATION_COLUMNS, "epochs", "dataset", "command"]
+    recon = pd.read_csv(REPO_ROOT / TABLE, keep_default_na=False).groupby("test_set").n.first()
+    sizes = {**recon.to_dict(), "all": int(recon.sum())}  # the full dataset's test sets and cycles
+    settings = {(a, float(v)) for pairs in ablation_settings().values() for a, v in pairs}
+    assert len(settings) == 5 + 3
+    assert set(zip(t.ablation, t.value)) == settings and len(t) == len(settings) * len(sizes)
+    assert not t.duplicated(["ablation", "value", "test_set"]).any()
+    assert (t.test_set.map(sizes) == t.n).all()
+    assert ((t.whislo <= t.q1) & (t.q1 <= t["median"]) & (t["median"] <= t.q3) & (t.q3 <= t.whishi)).all()
+    ref = [t[(t.ablation == "latent") & (t.value == 64)], t[(t.ablation == "kl_weight") & (t.value == 0.01)]]
+    assert ref[0].drop(columns=["ablation", "value"]).reset_index(drop=True).equals(
+        ref[1].drop(columns=["ablation", "value"]).reset_index(drop=True))  # one reference run in both figures
+    # made by the documented command at its default epochs
+    assert ablation_command(argparse.Namespace(epochs=None, dataset="full")) == ABLATION_COMMAND
+    assert (t.command == ABLATION_COMMAND).all() and (t.epochs == ABLATION_EPOCHS).all()
+    assert t.dataset.nunique() == 1 and t.dataset.iloc[0].startswith("body4d-")  # one full-dataset build
+    readme = (REPO_ROOT / "results" / "README.md").read_text()
+    row = next(line for line in readme.splitlines() if f"`{ABLATION_TABLE.name}`" in line)
+    assert f"`{ABLATION_COMMAND}`" in row and f"{ABLATION_EPOCHS} phase-1 epochs" in row

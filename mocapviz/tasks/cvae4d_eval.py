@@ -13,9 +13,11 @@
   :class:`mocapviz.bodies.torch_mesh.ChiMesher` from the first root at the origin), averaged over
   vertices and the 100 frames, in mm (:func:`vertex_errors`);
 - :func:`error_table` summarises per (model, test set): n, mean, median, q1, q3 and Tukey's
-  whisker ends in mm; :func:`boxplot_errors` draws Tukey box plots (whiskers at 1.5 IQR) of
-  per-sequence errors, :func:`boxplot_table` the same boxes from such a table's rows, as the
-  paper's Figs. 3-5;
+  whisker ends in mm; :func:`boxplot_table` draws Tukey box plots (whiskers at 1.5 IQR) from
+  such a table's rows, as the paper's Figs. 3-5;
+- :func:`ablation_table` labels such rows with their ablation and value (Figs. 3-4) and adds
+  every run's errors on all test sets together; :func:`ordering_steps` reads how the error
+  changes from one value to the next;
 - :func:`on_scale` re-expresses a dataset's translations in a checkpoint's scale, so a model
   trained on one build (the full dataset) reconstructs the cycles of another (the quick one).
 """
@@ -103,23 +105,40 @@ def error_table(errors: dict[tuple[str, str], np.ndarray]) -> pd.DataFrame:
     return pd.DataFrame(rows).round({c: 2 for c in STAT_COLUMNS})
 
 
+ABLATION_COLUMNS = ("ablation", "value", "model", "test_set", "n", *STAT_COLUMNS)
+
+
+def ablation_table(errors: dict[tuple[str, str], np.ndarray], settings: dict) -> pd.DataFrame:
+    """:func:`error_table` rows of ablation runs, labelled: ``errors`` {(run, test set): mm},
+    ``settings`` {run: [(ablation, value), ...]} (a reference run may stand in several ablations).
+    Each run also gets a test set "all": its errors on every test set together. Rows sorted by
+    ablation, value, test set; columns :data:`ABLATION_COLUMNS`."""
+    pooled = dict(errors)
+    for run in {r for r, _ in errors}:
+        pooled[(run, "all")] = np.concatenate([e for (r, _), e in sorted(errors.items()) if r == run])
+    table = error_table(pooled)
+    rows = [table[table.model == run].assign(ablation=ablation, value=float(value))
+            for run, pairs in settings.items() for ablation, value in pairs]
+    out = pd.concat(rows, ignore_index=True).sort_values(["ablation", "value", "test_set"], kind="stable")
+    return out[list(ABLATION_COLUMNS)].reset_index(drop=True)
+
+
+def ordering_steps(rows: pd.DataFrame, stat: str = "median") -> pd.DataFrame:
+    """Consecutive steps of one ablation on one test set (``rows``: :func:`ablation_table` rows,
+    any order): ``low``, ``high`` (values), ``low_mm``, ``high_mm`` (``stat`` of each),
+    ``change_pct`` (high against low) and ``falls`` (the error is lower at the higher value)."""
+    r = rows.sort_values("value")
+    v, e = r["value"].to_numpy(), r[stat].to_numpy(dtype=float)
+    return pd.DataFrame(dict(low=v[:-1], high=v[1:], low_mm=e[:-1], high_mm=e[1:],
+                             change_pct=np.round(100 * (e[1:] / e[:-1] - 1), 1), falls=e[1:] < e[:-1]))
+
+
 def boxplot_table(ax, rows: pd.DataFrame, labels: list[str], title: str = ""):
     """The Tukey boxes of :func:`error_table` rows (one per label, in order; outliers not drawn)."""
     stats = [dict(label=lab, med=r["median"], q1=r["q1"], q3=r["q3"], whislo=r["whislo"], whishi=r["whishi"],
                   mean=r["mean"]) for lab, (_, r) in zip(labels, rows.iterrows())]
     ax.bxp(stats, showfliers=False, showmeans=True)
     ax.set_ylabel("mean vertex error per sequence (mm)")
-    ax.set_title(title)
-    return ax
-
-
-def boxplot_errors(ax, errors: dict[str, np.ndarray], title: str = "", xlabel: str = ""):
-    """Tukey box plots (box: quartiles, line: median, whiskers: 1.5 IQR, points beyond) per label."""
-    labels = list(errors)
-    ax.boxplot([errors[k] for k in labels], whis=1.5)
-    ax.set_xticks(range(1, len(labels) + 1), labels)
-    ax.set_ylabel("mean vertex error per sequence (mm)")
-    ax.set_xlabel(xlabel)
     ax.set_title(title)
     return ax
 
@@ -153,20 +172,22 @@ def load_checkpoints(ds, paths: dict) -> dict:
 
 
 def reconstruction_errors(ds, models: dict, body=None, pca_latent: int | None = None,
-                          progress: bool = False) -> dict[tuple[str, str], np.ndarray]:
-    """Per-sequence mean vertex errors (mm) of PCA ("pca") and of each CVAE (name -> model) on
-    each test set: {(model, test set): errors}. PCA's latent size is ``pca_latent`` (default:
-    that of the first model) + dim(beta), capped by the training rank (:class:`PCABaseline`)."""
+                          progress: bool = False, with_pca: bool = True) -> dict[tuple[str, str], np.ndarray]:
+    """Per-sequence mean vertex errors (mm) of PCA ("pca", unless ``with_pca`` is False) and of
+    each CVAE (name -> model) on each test set: {(model, test set): errors}. PCA's latent size is
+    ``pca_latent`` (default: that of the first model) + dim(beta), capped by the training rank
+    (:class:`PCABaseline`)."""
     from tqdm.auto import tqdm
 
     from mocapviz.bodies.anny_model import body_model
     from mocapviz.bodies.torch_mesh import ChiMesher
 
     mesher = ChiMesher(body or body_model(), ds.gamma_scale)
-    latent = pca_latent or next(iter(models.values())).cfg.latent
-    train_idx, _ = split_indices(ds)
-    pca = PCABaseline(ds.chi[train_idx], ds.beta[train_idx], latent)
-    recon = {"pca": pca.reconstruct}
+    recon = {}
+    if with_pca:
+        latent = pca_latent or next(iter(models.values())).cfg.latent
+        train_idx, _ = split_indices(ds)
+        recon["pca"] = PCABaseline(ds.chi[train_idx], ds.beta[train_idx], latent).reconstruct
     recon.update({n: (lambda chi, beta, m=m: reconstruct_cvae(m, chi, beta)) for n, m in models.items()})
     errors = {}
     for t, idx in tqdm(test_sets(ds).items(), desc="reconstruction errors", disable=not progress):

@@ -87,9 +87,7 @@ class CVAETrainConfig:
 # 1,374 steps). The machine's two cores were shared with other training, hence so short.
 # The subset keeps phase 2 cheap; evaluation always uses every vertex.
 # "paper_*": the paper's schedule with wider layers (512, 256), for a GPU (checkpoints over 3 MiB).
-# "quick_phase1": notebook 12's ablation demonstration on the quick dataset (seconds per model).
 CVAE_CONFIGS = {
-    "quick_phase1": CVAETrainConfig(phase=1, epochs=300, batch_size=256, lr=1e-3, eval_every=100),
     "phase1": CVAETrainConfig(phase=1, epochs=400, batch_size=256, lr=1e-3, eval_every=50),
     "phase2": CVAETrainConfig(phase=2, epochs=6, batch_size=16, lr=1e-4, vertex_subset=1024, eval_every=2),
     "paper_phase1": CVAETrainConfig(phase=1, epochs=5000, batch_size=256, lr=1e-3, hidden=(512, 256),
