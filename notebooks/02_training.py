@@ -63,6 +63,7 @@ from mocapviz.tasks.generation_quality import (
     real_pose_distance,
     real_reference,
 )
+from mocapviz.tasks.one_step import linear_code_residual, one_step_table
 from mocapviz.training.config import TRAIN_CONFIGS
 from mocapviz.training.trainer import evaluate
 from mocapviz.training.windows import WindowData
@@ -336,6 +337,52 @@ fig.tight_layout()
 show_figure(fig)
 
 # %% [markdown]
+# ## 5b · Why: the one-step prediction (issue 9's diagnosis)
+#
+# Before a network can run on its own output, it must predict the next frame from the *true*
+# past better than doing nothing does. `mocapviz.tasks.one_step` feeds validation clips
+# teacher-forced and compares, per block of the frame vector and in training standard
+# deviations (the units the network reads), the median over frames and varying channels of the
+# predicted $\sigma$, the error of the predicted mean, the error of repeating the last frame
+# ("copy last"), and of constant-velocity extrapolation. Where the mean errs far more than
+# copying does, the mean barely follows its input: fed back, it slides to a pose of its own and
+# stays (freezing). Where $\sigma$ is far above a frame's real change, each sample jumps
+# farther than real motion moves in a frame (noise).
+
+# %%
+val_rows = np.flatnonzero((ds.clips.split == "val").values)[:12]
+one_step = {"ccnet_default": one_step_table(model, norm, ds, val_rows),
+            "ccnet_wide": one_step_table(gen_model, gen_norm, ds, val_rows)}
+print(pd.concat(one_step, axis=1).round(4).to_string())
+for name, t in one_step.items():
+    r = t.loc["rot"]
+    print(f"{name}: on the median rotation channel the mean errs by {r.mean_error:.2f} training std, "
+          f"{r.mean_error / r.copy_last:.0f}x what repeating the last frame errs; sigma is {r.sigma:.2f} std, "
+          f"{r.sigma / r.copy_last:.0f}x a real frame's change")
+
+# %% [markdown]
+# One cause we measured is width. CCNet's 1x1 encoder passes each frame through C numbers,
+# and its blocks carry C channels. How much of the normalised frames can *no* linear code of C
+# numbers carry (the PCA residual over the training frames, RMS per channel in training std)?
+
+# %%
+varying = ~norm.constant_channels()
+train_frames = norm.norm_x(ds.x[np.concatenate([np.arange(r.start, r.stop) for r in ds.clips.itertuples()
+                                                if r.split == "train"])])[:, :len(varying)][:, varying]
+residual = linear_code_residual(train_frames[::5], [32, 48, 96, 128, 192, 256])
+print("beyond a linear code of C numbers (RMS, training std): "
+      + ", ".join(f"C = {k}: {v:.3f}" for k, v in residual.items()))
+print(f"committed: ccnet_default C = {model.cfg.channels}, ccnet_wide C = {gen_model.cfg.channels}")
+
+# %% [markdown]
+# So the default width cannot even carry a frame, and the wide one only roughly. Width is not
+# the whole story, though: issue 9's notes record a run of the paper's width (C = 256) whose
+# validation NLL fell far below both committed models' while its one-step rotation error
+# stayed near theirs, and runs without dropout and with beta-NLL (`TrainConfig.nll_beta`, which
+# keeps a large $\sigma$ from silencing the pull on an unfitted mean) that changed neither the
+# one-step error nor the freezing.
+
+# %% [markdown]
 # ## 6 · How this compares with the paper
 #
 # * **Data.** The paper trains on 486k frames of 12 subjects with long, mixed recordings. Dataset
@@ -346,9 +393,9 @@ show_figure(fig)
 #   the paper's 2000 epochs on a GPU.
 # * **Generation.** The paper generates "more than 20,000 frames" of motion that does not freeze.
 #   Section 5 prints, per seed, which of ours keep moving with plausible poses and which freeze;
-#   sampling from the predicted Gaussian stays noise because our $\sigma$ (tenths of a standard
-#   deviation) is far above the paper's $10^{-4}$-$10^{-3}$: the network's one-step prediction
-#   is still much worse than copying the current frame. Issue 9 records what we tried: a residual
+#   sampling from the predicted Gaussian stays noise because our $\sigma$ is far above a real
+#   frame's change, and the one-step mean far worse than copying the current frame (section 5b).
+#   Issue 9 records what we tried: a residual
 #   mean (on every channel it drifts without bound; on the rotations and positions only it never
 #   freezes but tumbles through impossible poses, 6-26x the real pose distance; a leak,
 #   mean = g x_t + output with g = 0.9 or 0.98, freezes every seed), constant input offsets as
