@@ -85,6 +85,9 @@ TRAIN_CONFIGS = {
                         feedback_passes=4),
     "wide": TrainConfig(size="wide", steps=2800, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
                         feedback_passes=4),
+    # the paper's width (C = skip = 256, 9.2 M parameters) on the default schedule, without
+    # feedback: issue 9's width run (about 1 h for 1000 steps on one shared core)
+    "paper_width": TrainConfig(size="paper", steps=2000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam"),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }
