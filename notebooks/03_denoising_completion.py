@@ -46,8 +46,7 @@ import torch
 
 from data_prep.apps_tables import dataset, denoising_clips, denoising_table, load_models
 from data_prep.sources import REPO_ROOT
-from mocapviz.features.ccnet import features_to_motion
-from mocapviz.features.ccnet import FeatureLayout
+from mocapviz.features.ccnet import FeatureLayout, features_to_motion
 from mocapviz.tasks.denoising import Repairer, add_noise, complete_leg, error_shares, sensitivity
 
 torch.set_num_threads(1)

@@ -29,16 +29,23 @@ from mocapviz.features.motion_types import one_hot
 RIGHT_LEG = ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")
 
 
-def teacher_forced_means(model, x_norm: np.ndarray, skel_norm: np.ndarray, traj_norm: np.ndarray,
-                         types: np.ndarray) -> np.ndarray:
-    """(T-1, n_continuous) normalised means of frames 1..T-1 of a clip, each predicted from the
-    frames before it: x_norm (T, n_x) inputs, traj_norm (T, 12) c^d of each frame, skel_norm
-    (n_skel,), types (n_types,) one-hot. Input t carries x_t and c^d_{t+1} (as in training)."""
+def teacher_forced(model, x_norm: np.ndarray, skel_norm: np.ndarray, traj_norm: np.ndarray,
+                   types: np.ndarray) -> dict[str, np.ndarray]:
+    """The model's outputs (``mean``, ``sigma``: (T-1, n_continuous), normalised) for frames
+    1..T-1 of a clip, each predicted from the true frames before it: x_norm (T, n_x) inputs,
+    traj_norm (T, 12) c^d of each frame, skel_norm (n_skel,), types (n_types,) one-hot. Input t
+    carries x_t and c^d_{t+1} (as in training)."""
     model.eval()
     f = lambda a: torch.as_tensor(np.asarray(a, np.float32))[None]  # noqa: E731
     with torch.no_grad():
         out = model(x=f(x_norm[:-1]), skel=f(skel_norm), traj=f(traj_norm[1:]), types=f(types))
-    return out["mean"][0].numpy()
+    return {k: out[k][0].numpy() for k in ("mean", "sigma")}
+
+
+def teacher_forced_means(model, x_norm: np.ndarray, skel_norm: np.ndarray, traj_norm: np.ndarray,
+                         types: np.ndarray) -> np.ndarray:
+    """The means of :func:`teacher_forced`."""
+    return teacher_forced(model, x_norm, skel_norm, traj_norm, types)["mean"]
 
 
 def add_noise(x_norm: np.ndarray, std: float, n_continuous: int, rng: np.random.Generator) -> np.ndarray:

@@ -19,23 +19,20 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-import torch
 
 from mocapviz.features.motion_types import one_hot
+from mocapviz.tasks.denoising import teacher_forced
 
 COLUMNS = ("sigma", "mean_error", "copy_last", "extrapolate")
 
 
-@torch.no_grad()
 def one_step_prediction(model, norm, clip: dict) -> tuple[np.ndarray, np.ndarray]:
     """Normalised mean and sigma (T-1, n_continuous) of frames 1..T-1 of a raw clip (dict as
-    ``CCNetDataset.clip_arrays``), each from the true frames before it (input t carries x_t and
-    c^d_{t+1}, as in training)."""
-    model.eval()
-    f = lambda a: torch.as_tensor(np.asarray(a, np.float32))[None]  # noqa: E731
-    out = model(x=f(norm.norm_x(clip["x"])[:-1]), skel=f(norm.norm_skel(clip["skel"])),
-                traj=f(norm.norm_traj(clip["traj"])[1:]), types=f(one_hot([clip["type_index"]], model.cfg.n_types)[0]))
-    return out["mean"][0].numpy(), out["sigma"][0].numpy()
+    ``CCNetDataset.clip_arrays``), each from the true frames before it
+    (:func:`mocapviz.tasks.denoising.teacher_forced`)."""
+    out = teacher_forced(model, norm.norm_x(clip["x"]), norm.norm_skel(clip["skel"]), norm.norm_traj(clip["traj"]),
+                         one_hot([clip["type_index"]], model.cfg.n_types)[0])
+    return out["mean"], out["sigma"]
 
 
 def one_step_errors(x_norm: np.ndarray, mean: np.ndarray, sigma: np.ndarray) -> dict[str, np.ndarray]:

@@ -52,18 +52,15 @@ def save_checkpoint(path, model: torch.nn.Module, normaliser: Normaliser, meta: 
     return path
 
 
-def split_checkpoint(src, dest, max_bytes: int, half: bool = False) -> list[Path]:
+def split_checkpoint(src, dest, max_bytes: int) -> list[Path]:
     """Rewrite the checkpoint ``src`` as ``dest`` plus ``<dest stem>.partK.safetensors`` files of
     at most about ``max_bytes`` of tensors each (the repository keeps files under 3 MiB);
-    ``dest``'s metadata lists the parts and :func:`read_checkpoint` reads them back. ``half``
-    stores the model's weights as float16 (loading casts them back to the model's float32; the
-    normaliser stays float32). Returns every file written, ``dest`` first."""
+    ``dest``'s metadata lists the parts and :func:`read_checkpoint` reads them back. Returns
+    every file written, ``dest`` first."""
     dest = Path(dest)
     with safe_open(str(src), framework="pt") as f:
         meta = dict(f.metadata() or {})
         tensors = {k: f.get_tensor(k) for k in f.keys()}
-    if half:
-        tensors = {k: v.half() if k.startswith("model.") and v.is_floating_point() else v for k, v in tensors.items()}
     groups, size = [{}], 0
     for k, v in tensors.items():
         nbytes = v.numel() * v.element_size()
