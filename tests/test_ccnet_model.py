@@ -162,6 +162,36 @@ def test_fed_back_inputs_are_the_models_own_means():
     assert torch.equal(twice[:, 5:, 1:n], mean2[:, 4:-1, 1:])        # the second pass feeds the first's
 
 
+def test_rolled_out_inputs_run_free_from_start():
+    """Each rolled-out frame is the full forward's mean on the rolled-out inputs before it (a
+    free-running generation, residual rule included); the seed, constant channels and contacts
+    stay the data's."""
+    from mocapviz.training.trainer import rolled_out
+    cfg = small_cfg(residual_ranges=((0, 10),))
+    m = net(cfg)
+    x, skel, traj, types = inputs(cfg, t=12)
+    varying = torch.ones(cfg.n_continuous, dtype=torch.bool)
+    varying[3] = False
+    b = dict(x=x, skel=skel, traj=traj, types=types, varying=varying)
+    rolled = rolled_out(m, b, start=5)
+    with torch.no_grad():
+        mean = m(rolled, skel, traj, types)["mean"]
+    n = cfg.n_continuous
+    assert torch.equal(rolled[:, :5], x[:, :5])
+    assert torch.allclose(rolled[:, 5:, :n][..., varying], mean[:, 4:-1][..., varying], atol=1e-5)
+    assert torch.equal(rolled[:, 5:, 3], x[:, 5:, 3]) and torch.equal(rolled[..., n:], x[..., n:])
+    assert not torch.allclose(rolled[:, 5:, :n], x[:, 5:, :n])
+
+
+def test_rollout_sigma_detaches_the_rolled_out_outputs_only():
+    from mocapviz.training.trainer import rollout_sigma
+    sigma = torch.ones(2, 6, 3, requires_grad=True)
+    out = rollout_sigma(dict(sigma=sigma * 2, mean=sigma), start=4)
+    out["sigma"].sum().backward()
+    assert torch.equal(out["sigma"], torch.full((2, 6, 3), 2.0))
+    assert torch.equal(sigma.grad[:, :4], torch.full((2, 4, 3), 2.0)) and not sigma.grad[:, 4:].any()
+
+
 def test_gaussian_nll_hand_computed():
     x = torch.tensor([1.0, -2.0])
     mu = torch.tensor([0.5, 0.0])

@@ -34,6 +34,7 @@ class TrainConfig:
     residual_blocks: tuple[str, ...] = ()  # ... only on these blocks of x (FeatureLayout.x_blocks)
     residual_gain: float = 1.0      # ... the mean adds this times x_t (CCNetConfig.residual_gain)
     feedback_passes: int = 0        # inputs of the window's second half: the model's own means, k passes
+    rollout_from: int = 0            # inputs from this frame of the window on: the model's own free-running means (0: off)
     optimizer: str = "rmsprop"      # "rmsprop" (the paper's) or "adam" (OPTIMIZERS)
     seed: int = 0
     eval_every: int = 250
@@ -88,6 +89,15 @@ TRAIN_CONFIGS = {
     # the paper's width (C = skip = 256, 9.2 M parameters) on the default schedule, without
     # feedback: issue 9's width run (about 1 h for 1000 steps on one shared core)
     "paper_width": TrainConfig(size="paper", steps=2000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam"),
+    # issue 9's moving network: the mean adds x_t on the pose blocks (residual), and every
+    # 120-frame window runs free from frame 48 on (rollout_from), so the network trains on its own
+    # drift; beta-NLL 1 (the mean's gradient is the squared error's), no dropout, little noise
+    "rollout": TrainConfig(size="default", steps=2500, batch_size=32, window=120, lr=1e-3, lr_final=1e-5,
+                           optimizer="adam", dropout=0.0, noise_std=0.01, nll_beta=1.0,
+                           residual_blocks=("rot", "angvel", "pos", "vel"), rollout_from=48),
+    "rollout_all": TrainConfig(size="default", steps=2500, batch_size=32, window=120, lr=1e-3, lr_final=1e-5,
+                               optimizer="adam", dropout=0.0, noise_std=0.01, nll_beta=1.0, residual=True,
+                               rollout_from=48),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }

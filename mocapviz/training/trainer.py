@@ -63,6 +63,46 @@ def fed_back(net, b: dict, input_names, passes: int) -> torch.Tensor:
     return x
 
 
+@torch.no_grad()
+def rolled_out(model, b: dict, start: int) -> torch.Tensor:
+    """Inputs ``b["x"]`` (B, T, n_x) whose frames from ``start`` on are the model's own
+    free-running means, as in generation (``TrainConfig.rollout_from``).
+
+    Frames before ``start`` stay the (noisy) data, a seed; from there the incremental stepper
+    (:mod:`mocapviz.models.steppers`) feeds every predicted mean back as the next input, with the
+    window's own trajectory controls. Unlike :func:`fed_back`, whose chains are ``passes``
+    predictions deep, a rolled-out frame carries the errors of every prediction since ``start``:
+    the network trains on the drift it makes itself, with the data as the target it should
+    return to. The constant channels and the contact labels stay the data's.
+    """
+    x = b["x"].clone()
+    varying, cfg = b["varying"], model.cfg
+    n, mean_at = varying.shape[0], cfg.output_slices["mean"]
+    stepper = model.stepper(x.shape[0], "torch")
+    stepper.set_static(b["skel"], b["types"])
+    for t in range(x.shape[1] - 1):
+        raw = stepper.step(x[:, t], b["traj"][:, t])
+        if t + 1 < start:
+            continue
+        mean = raw[:, mean_at].clone()
+        for sl in cfg.residual_slices:  # as the Generator: the change from g x_t
+            mean[:, sl] += cfg.residual_gain * x[:, t, sl]
+        x[:, t + 1, :n][:, varying] = mean[:, varying]
+    return x
+
+
+def rollout_sigma(out: dict, start: int) -> dict:
+    """``out`` with sigma detached at the outputs whose input was rolled out (index >= ``start``).
+
+    There the mean's error is mostly the drift of the rollout, which the network is meant to
+    pull back, not the uncertainty of the next frame given the true past; learning sigma from
+    it would make every sample jump by the size of that drift. The mean still learns from every
+    frame (with ``nll_beta`` = 1 its gradient is the squared error's, whatever sigma is).
+    """
+    sigma = out["sigma"]
+    return dict(out, sigma=torch.cat([sigma[:, :start], sigma[:, start:].detach()], dim=1))
+
+
 def offset_noise(x: torch.Tensor, std: float, n_continuous: int) -> torch.Tensor:
     """A constant offset per window on the continuous channels of x (B, T, n_x): N(0, s^2) per
     channel with s ~ U(0, std) per window (``TrainConfig.offset_noise_std``).
@@ -161,7 +201,11 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
             b["x"] = b["x"] + offset_noise(b["x"], cfg.offset_noise_std, model.cfg.n_continuous)
         if cfg.feedback_passes:
             b["x"] = fed_back(net, b, model.input_names, cfg.feedback_passes)
+        if cfg.rollout_from:
+            b["x"] = rolled_out(model, b, cfg.rollout_from)
         out = net(**{k: b[k] for k in model.input_names})
+        if cfg.rollout_from:  # sigma learns from the seed part only (see rollout_sigma)
+            out = rollout_sigma(out, cfg.rollout_from)
         parts = loss_fn(out, b, model.cfg, cfg.lambdas, nll_beta=cfg.nll_beta)
         opt.zero_grad(set_to_none=True)
         parts["loss"].backward()
