@@ -64,3 +64,38 @@ def test_linear_code_residual_by_hand():
     assert r[0] == pytest.approx(np.sqrt(10 / 4), rel=0.02)
     assert r[1] == pytest.approx(0.5, rel=0.02)
     assert r[2] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_drift_table_of_a_network_that_repeats_its_input_is_standing_still(ds):
+    """A residual CCNet with a zero decoder predicts x_{t+1} = x_t: free-running, it stands
+    still at the last true frame, so both columns agree; with the decoder's bias it drifts by
+    exactly depth x bias."""
+    from mocapviz.models.ccnet import CCNet
+    from mocapviz.models.ccnet_config import make_config
+    from mocapviz.tasks.one_step import drift_table
+    from mocapviz.training.windows import WindowData
+    data = WindowData(ds, 40)
+    lay = ds.layout
+    cfg = make_config("quick", n_x=lay.n_x, n_skel=lay.n_skel, n_traj=lay.n_traj, n_types=lay.n_types,
+                      dilations=(1, 2), residual=True)
+    model = CCNet(cfg).eval()
+    with torch.no_grad():
+        model.decoder.weight.zero_()
+        model.decoder.bias.zero_()
+    pairs = data.train[:8]
+    t = drift_table(model, data, pairs, start=20, depths=(1, 5, 19))
+    assert list(t.index) == [1, 5, 19] and list(t.columns) == ["free_running", "stand_still"]
+    np.testing.assert_allclose(t["free_running"], t["stand_still"], rtol=1e-5)
+    assert t["stand_still"].is_monotonic_increasing and t.loc[1, "stand_still"] > 0
+    with torch.no_grad():
+        model.decoder.bias[cfg.output_slices["mean"]] = 0.01
+    drift = drift_table(model, data, pairs, start=20, depths=(1, 5, 19))
+    # each free frame adds 0.01 to every channel: at depth d the error is |x_19 + 0.01 d - x_{19+d}|
+    b = data.batch(pairs)
+    rot = lay.x_blocks["rot"]
+    truth = b["x"][:, :, rot][..., b["varying"][rot]]
+    expect = [float((truth[:, 19] + 0.01 * d - truth[:, 19 + d]).abs().median()) for d in (1, 5, 19)]
+    np.testing.assert_allclose(drift["free_running"], expect, rtol=1e-4)
+    assert drift.loc[19, "free_running"] > t.loc[19, "free_running"]
+    with pytest.raises(ValueError, match="cannot reach"):
+        drift_table(model, data, pairs, start=30, depths=(19,))

@@ -13,6 +13,12 @@ clips, the median of
 ``sigma`` far above ``copy_last`` means a sample is a jump larger than real motion makes in a
 frame (noise); ``mean_error`` far above it means the mean barely follows the input, so fed back
 it converges on a pose of its own (freezing).
+
+:func:`drift_table` follows the same windows further: the network runs free from a frame on
+(its means fed back, the windows' own controls), and its error at each depth is set beside the
+error of standing still at the last true frame. A network that tracks its input but drifts
+beats standing still for a few frames and then falls behind it; one that does not track its
+input starts behind and stays at a constant error (it converges on its own pose).
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ import pandas as pd
 
 from mocapviz.features.motion_types import one_hot
 from mocapviz.tasks.denoising import teacher_forced
+from mocapviz.training.trainer import rolled_out
 
 COLUMNS = ("sigma", "mean_error", "copy_last", "extrapolate")
 
@@ -70,3 +77,26 @@ def linear_code_residual(x_norm: np.ndarray, widths) -> dict[int, float]:
     x = x - x.mean(axis=0)
     energy = np.linalg.svd(x, compute_uv=False) ** 2
     return {int(k): float(np.sqrt(max(energy[int(k):].sum(), 0.0) / x.size)) for k in widths}
+
+
+def drift_table(model, data, pairs: np.ndarray, start: int, depths=(1, 5, 10, 30), block: str = "rot") -> pd.DataFrame:
+    """Median |error| (normalised units, varying channels of ``block``) of the free-running means
+    ``depth`` frames after the last true frame, against standing still at that frame.
+
+    ``data``: a :class:`mocapviz.training.windows.WindowData` (its windows must be longer than
+    ``start + max(depths)``); ``pairs``: its (clip, start) windows; the first ``start`` frames
+    of each are the true seed, then the model runs free (:func:`mocapviz.training.trainer.rolled_out`).
+    Rows: the depths; columns ``free_running`` and ``stand_still``."""
+    if start + max(depths) > data.window:
+        raise ValueError(f"windows of {data.window} frames cannot reach depth {max(depths)} after frame {start}")
+    b = data.batch(np.asarray(pairs))
+    x = rolled_out(model, b, start)
+    sl = data.layout.x_blocks[block]
+    keep = b["varying"][sl]
+    truth = b["x"][:, :, sl][..., keep]
+    last = start - 1
+    free = (x[:, :, sl][..., keep] - truth).abs()
+    still = (truth[:, last:last + 1] - truth).abs()
+    return pd.DataFrame({"free_running": [float(free[:, last + d].median()) for d in depths],
+                         "stand_still": [float(still[:, last + d].median()) for d in depths]},
+                        index=pd.Index(list(depths), name="depth"))
