@@ -167,6 +167,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     torch.manual_seed(cfg.seed)
     model = model_cls(cfg.model_config(data.layout))
     loss_fn = LOSSES[model.name]
+    if cfg.rollout_from and not hasattr(model, "stepper"):
+        raise ValueError(f"rollout_from needs a model with an incremental stepper (CCNet), not {cfg.model!r}")
     opt = cfg.make_optimizer(model.parameters())
     start = 0
     rows: list[dict] = []
