@@ -37,6 +37,7 @@ class BaselineConfig:
     n_continuous = CCNetConfig.n_continuous
     output_slices = CCNetConfig.output_slices
     n_out = CCNetConfig.n_out
+    add_residual = CCNetConfig.add_residual
 
     @property
     def residual_slices(self) -> list[slice]:

@@ -102,10 +102,7 @@ class CCNet(nn.Module):
             skip = skip + s
         out = self.split_output(F.linear(torch.relu(skip), self.decoder.weight[:, :, 0], self.decoder.bias))
         if self.cfg.residual_slices:
-            add = torch.zeros_like(out["mean"])
-            for sl in self.cfg.residual_slices:
-                add[..., sl] = self.cfg.residual_gain * x[..., sl]
-            out["mean"] = out["mean"] + add
+            out["mean"] = self.cfg.add_residual(out["mean"].clone(), x)
         return out
 
     def split_output(self, out: torch.Tensor) -> dict[str, torch.Tensor]:

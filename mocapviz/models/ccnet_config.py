@@ -56,6 +56,14 @@ class CCNetConfig:
             return [slice(0, self.n_continuous)]
         return [slice(a, b) for a, b in self.residual_ranges]
 
+    def add_residual(self, mean, x):
+        """The residual rule, the one home of it: on each residual slice the decoder gave the
+        change from g x_t, so ``mean[..., sl] += g * x[..., sl]``, in place (numpy arrays or torch
+        tensors, ``x`` the input frames). Returns ``mean``."""
+        for sl in self.residual_slices:
+            mean[..., sl] += self.residual_gain * x[..., sl]
+        return mean
+
     @property
     def n_continuous(self) -> int:
         """Channels of x modelled by the Gaussian: all but the contact labels."""

@@ -149,9 +149,8 @@ class Generator:
             else:
                 c_next = pred_traj
             raw = self._step(x_t, np.ascontiguousarray(c_next))
-            mean = raw[:, self.parts["mean"]]  # a view: the residual channels get x_t added in place
-            for sl in self.cfg.residual_slices:  # there the decoder gave the change from g x_t
-                mean[:, sl] += self.cfg.residual_gain * x_t[:, sl]
+            # a view of raw: the residual channels get g x_t added in place
+            self.cfg.add_residual(raw[:, self.parts["mean"]], x_t)
             if self.keep_outputs:
                 self.raw_outputs.append(raw.copy())
             if t + 1 >= s:

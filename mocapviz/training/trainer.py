@@ -84,9 +84,7 @@ def rolled_out(model, b: dict, start: int) -> torch.Tensor:
         raw = stepper.step(x[:, t], b["traj"][:, t])
         if t + 1 < start:
             continue
-        mean = raw[:, mean_at].clone()
-        for sl in cfg.residual_slices:  # as the Generator: the change from g x_t
-            mean[:, sl] += cfg.residual_gain * x[:, t, sl]
+        mean = cfg.add_residual(raw[:, mean_at].clone(), x[:, t])
         x[:, t + 1, :n][:, varying] = mean[:, varying]
     return x
 
