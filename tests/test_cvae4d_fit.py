@@ -93,3 +93,15 @@ def test_vertex_loss_masks_padding_frames():
     assert float(loss[0]) == pytest.approx(0.0, abs=1e-12)
     unmasked = vertex_loss(mesher, bad, times)(chi, torch.zeros(1, 2))
     assert float(unmasked[0]) == pytest.approx(0.5 * 3.0, rel=1e-6)  # one of two frames off by (1, 1, 1)
+
+
+def test_weights_frozen_restores_each_flag_also_on_error():
+    from mocapviz.tasks.cvae4d_fit import weights_frozen
+    net = torch.nn.Sequential(torch.nn.Linear(2, 2), torch.nn.Linear(2, 1))
+    net[1].bias.requires_grad_(False)
+    before = [p.requires_grad for p in net.parameters()]
+    with pytest.raises(RuntimeError):
+        with weights_frozen(net):
+            assert not any(p.requires_grad for p in net.parameters())
+            raise RuntimeError("mid-fit")
+    assert [p.requires_grad for p in net.parameters()] == before == [True, True, True, False]

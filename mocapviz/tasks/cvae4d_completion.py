@@ -68,6 +68,7 @@ from scipy.spatial import cKDTree
 
 from mocapviz.bodies.anny_model import BETA_BOUNDS, BETA_LABELS, NEUTRAL_BETA
 from mocapviz.bodies.representation import PHI_SCALE
+from mocapviz.tasks.cvae4d_fit import weights_frozen
 from mocapviz.training.gradnorm import GradNorm
 
 # 16 marker vertices (name, nearest anny joint, vertex id), a Plug-in-Gait subset: head front
@@ -223,11 +224,8 @@ def complete(model, mesher, obs: Observation, cfg: CompletionConfig = Completion
     markers = None if obs.markers is None else torch.as_tensor(obs.markers)
     trees = None if obs.points is None else [cKDTree(p) for p in obs.points]
     n_sub = mesher.n_vertices - len(MARKER_VERTICES)
-    frozen = [p for p in model.parameters() if p.requires_grad]
-    for p in frozen:  # only z and beta are fitted
-        p.requires_grad_(False)
     log = []
-    try:
+    with weights_frozen(model):  # only z and beta are fitted
         for _ in trange(cfg.steps, desc="completion fit", disable=not progress, leave=False):
             opt.zero_grad()
             chi = model.decode(z, beta)[0]
@@ -254,9 +252,6 @@ def complete(model, mesher, obs: Observation, cfg: CompletionConfig = Completion
             with torch.no_grad():
                 beta.copy_(torch.minimum(torch.maximum(beta, lo), hi))
             log.append({n: float(v.detach()) for n, v in losses.items()})
-    finally:
-        for p in frozen:
-            p.requires_grad_(True)
     with torch.no_grad():
         chi = model.decode(z, beta)[0].numpy()
     weights = {n: gradnorm.current().get(n, 0.0) for n in TASK_NAMES}

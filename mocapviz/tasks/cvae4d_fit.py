@@ -23,6 +23,7 @@ given. ``beta_bounds`` clamps beta after each step (anny's phenotypes live in [0
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import torch
@@ -49,6 +50,20 @@ class FitResult:
     seconds: float
 
 
+@contextmanager
+def weights_frozen(model):
+    """No weight gradients inside (cheaper, and the weights stay as they are); each parameter's
+    requires_grad comes back afterwards, also on an error. For fits of the decoder's inputs."""
+    trainable = [p.requires_grad for p in model.parameters()]
+    for p in model.parameters():
+        p.requires_grad_(False)
+    try:
+        yield model
+    finally:
+        for p, flag in zip(model.parameters(), trainable):
+            p.requires_grad_(flag)
+
+
 def fit_latent(model, loss_fn, z0: torch.Tensor, beta0: torch.Tensor, cfg: FitConfig = FitConfig(),
                progress: bool = False) -> FitResult:
     """Adam on (z, beta) (beta fixed unless ``cfg.fit_beta``) minimising the summed per-sequence
@@ -59,11 +74,8 @@ def fit_latent(model, loss_fn, z0: torch.Tensor, beta0: torch.Tensor, cfg: FitCo
     z = z0.detach().clone().float().requires_grad_(True)
     beta = beta0.detach().clone().float().requires_grad_(cfg.fit_beta)
     opt = torch.optim.Adam([z, beta] if cfg.fit_beta else [z], lr=cfg.lr)
-    trainable = [p.requires_grad for p in model.parameters()]
-    for p in model.parameters():  # no weight gradients: cheaper, and the weights stay as they are
-        p.requires_grad_(False)
     losses = []
-    try:
+    with weights_frozen(model):
         for _ in tqdm(range(cfg.steps), desc="fit (z, beta)", disable=not progress, leave=False):
             opt.zero_grad()
             per_seq = loss_fn(model.decode(z, beta), beta)
@@ -74,9 +86,6 @@ def fit_latent(model, loss_fn, z0: torch.Tensor, beta0: torch.Tensor, cfg: FitCo
                 with torch.no_grad():
                     beta.clamp_(*cfg.beta_bounds)
             losses.append(float(total.detach()))
-    finally:
-        for p, flag in zip(model.parameters(), trainable):
-            p.requires_grad_(flag)
     with torch.no_grad():
         chi = model.decode(z, beta)
         final = loss_fn(chi, beta)
