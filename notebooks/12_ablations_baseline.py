@@ -52,7 +52,7 @@ from IPython.display import display
 
 from data_prep.sources import REPO_ROOT
 from data_prep.train_cvae import ABLATION_TABLE, TABLE, TABLE_MODELS, checkpoint_id
-from mocapviz.tasks.cvae4d_eval import boxplot_table, error_table, ordering_steps
+from mocapviz.tasks.cvae4d_eval import boxplot_table, error_table, ordering_steps, paper_ordering_holds
 from mocapviz.training.cvae4d import load_cvae
 from mocapviz.viz import save_figure
 from mocapviz.zoo import find_checkpoint
@@ -179,18 +179,12 @@ display(abl.pivot_table(index=["ablation", "value"], columns="test_set", values=
 PAPER_CYCLES, PAPER_EPOCHS = 13121, 5000  # paper §4.1-4.2: AMASS training cycles, phase-1 epochs
 
 
-def paper_holds(steps, ablation):
-    if ablation == "latent":
-        return bool(steps.loc[steps.high <= 64, "falls"].all())
-    return not steps.falls.any()
-
-
 def ordering_sentence(ablation, t="all"):
     rows = abl[(abl.ablation == ablation) & (abl.test_set == t)]
     by = {stat: ordering_steps(rows, stat) for stat in ("median", "mean")}
     values = " -> ".join(f"{v:g}: {m:.1f} mm" for v, m in zip(rows.sort_values("value").value,
                                                               rows.sort_values("value")["median"]))
-    holds = {stat: paper_holds(st, ablation) for stat, st in by.items()}
+    holds = {stat: paper_ordering_holds(st, ablation) for stat, st in by.items()}
     steps = ", ".join(f"{lo:g} -> {hi:g} {c:+.1f} %" for lo, hi, c in by["median"][["low", "high", "change_pct"]].values)
     expected = "falling up to 64" if ablation == "latent" else "rising with the weight"
     return (f"{figs[ablation][0]}, '{t}' ({rows.n.iloc[0]} cycles), medians {values} ({steps}): the paper's "

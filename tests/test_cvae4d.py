@@ -273,3 +273,14 @@ def test_ablation_table_complete_and_made_by_the_documented_command():
     readme = (REPO_ROOT / "results" / "README.md").read_text()
     row = next(line for line in readme.splitlines() if f"`{ABLATION_TABLE.name}`" in line)
     assert f"`{ABLATION_COMMAND}`" in row and f"{ABLATION_EPOCHS} phase-1 epochs" in row
+
+
+def test_paper_ordering_holds_by_hand():
+    from mocapviz.tasks.cvae4d_eval import paper_ordering_holds
+    steps = lambda pairs: pd.DataFrame([dict(low=lo, high=hi, falls=f) for lo, hi, f in pairs])
+    # latent: falling up to 64 holds even if 64 -> 128 rises; one rise below 64 breaks it
+    assert paper_ordering_holds(steps([(8, 16, True), (16, 64, True), (64, 128, False)]), "latent")
+    assert not paper_ordering_holds(steps([(8, 16, True), (16, 64, False), (64, 128, True)]), "latent")
+    # KL weight: the error must rise at every step
+    assert paper_ordering_holds(steps([(0.001, 0.01, False), (0.01, 0.1, False)]), "kl_weight")
+    assert not paper_ordering_holds(steps([(0.001, 0.01, True), (0.01, 0.1, False)]), "kl_weight")

@@ -133,6 +133,15 @@ def ordering_steps(rows: pd.DataFrame, stat: str = "median") -> pd.DataFrame:
                              change_pct=np.round(100 * (e[1:] / e[:-1] - 1), 1), falls=e[1:] < e[:-1]))
 
 
+def paper_ordering_holds(steps: pd.DataFrame, ablation: str) -> bool:
+    """Whether :func:`ordering_steps` of one ablation follow the paper's ordering: Fig. 3, the
+    error falls with the latent size up to 64 (every step ending at 64 or below falls); Fig. 4,
+    it rises with the KL weight (no step falls)."""
+    if ablation == "latent":
+        return bool(steps.loc[steps.high <= 64, "falls"].all())
+    return not steps.falls.any()
+
+
 def boxplot_table(ax, rows: pd.DataFrame, labels: list[str], title: str = ""):
     """The Tukey boxes of :func:`error_table` rows (one per label, in order; outliers not drawn)."""
     stats = [dict(label=lab, med=r["median"], q1=r["q1"], q3=r["q3"], whislo=r["whislo"], whishi=r["whishi"],
