@@ -153,3 +153,25 @@ def test_sampling_temperature_scales_the_draw_around_the_mean(ds, committed):
     np.testing.assert_allclose(first[0.5] - first["mean"], 0.5 * away, atol=1e-5)
     with pytest.raises(ValueError, match="temperature"):
         Generator(model, norm, sample=True, temperature=-1)
+
+
+def test_latent_model_samples_z_and_writes_the_decoders_mean(ds, committed):
+    """A latent CCNet (CCNetConfig.latent) samples z ~ N(0, T^2 I) per frame and writes the
+    decoder's mean (no per-frame Gaussian noise); temperature 0 or the mean output use z = 0."""
+    model, norm, _ = committed
+    latent = CCNet(replace(model.cfg, latent=4)).eval()
+    latent.load_state_dict(model.state_dict(), strict=False)
+    with torch.no_grad():
+        latent.z_in.weight.normal_(0, 1.0)
+    _, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120")
+    types = one_hot([ti], model.cfg.n_types)
+    run = lambda **kw: Generator(latent, norm, **kw).run(x, skel, types, 60, seed_traj=traj)  # noqa: E731
+    mean, cold = run(), run(sample=True, temperature=0.0)
+    g = Generator(latent, norm, sample=True, seed=1)
+    g.keep_outputs = True
+    hot = g.run(x, skel, types, 60, seed_traj=traj)
+    inc, _ = step_outputs(g.raw_outputs, latent.cfg)
+    s, n, const = x.shape[1], latent.cfg.n_continuous, norm.constant_channels()
+    np.testing.assert_array_equal(cold.x_norm, mean.x_norm)
+    assert np.abs(hot.x_norm[0, s:, :n] - mean.x_norm[0, s:, :n]).max() > 0.1
+    np.testing.assert_array_equal(hot.x_norm[0, s:, :n][:, ~const], inc[0, s - 1:, :n][:, ~const])

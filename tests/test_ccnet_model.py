@@ -144,7 +144,7 @@ def test_residual_gain_scales_the_added_input_frame():
 
 
 def test_fed_back_inputs_are_the_models_own_means():
-    from mocapviz.training.trainer import fed_back
+    from mocapviz.training.trainer import fed_back, model_inputs
     cfg = small_cfg(residual=True)
     m = net(cfg)
     x, skel, traj, types = inputs(cfg, t=10)
@@ -153,7 +153,8 @@ def test_fed_back_inputs_are_the_models_own_means():
     b = dict(x=x, skel=skel, traj=traj, types=types, varying=varying)
     with torch.no_grad():
         mean = m(x, skel, traj, types)["mean"]
-        once, twice = fed_back(m, b, m.input_names, 1), fed_back(m, b, m.input_names, 2)
+        fed_inputs = model_inputs(m, b)
+        once, twice = fed_back(m, b, fed_inputs, 1), fed_back(m, b, fed_inputs, 2)
         mean2 = m(once, skel, traj, types)["mean"]
     n = cfg.n_continuous
     assert torch.equal(once[:, :5], x[:, :5])                        # first half: the data
@@ -282,3 +283,105 @@ def test_beta_nll_weights_the_gradient_not_the_logged_nll():
         np.testing.assert_allclose(mean.grad[0, 0].numpy(), expected, rtol=1e-6)   # (mean - target) / sigma^2 * w
         plain = np.log([2.0, 0.5]) + 0.5 * np.array([1 / 4, 1 / 0.25]) + 0.5 * np.log(2 * np.pi)
         assert parts["nll"].item() == pytest.approx(plain.sum(), rel=1e-6)
+
+
+def latent_net(**kw):
+    cfg = small_cfg(latent=4, posterior_hidden=16, **kw)
+    m = net(cfg)
+    with torch.no_grad():  # a z that visibly moves the output
+        m.z_in.weight.mul_(10)
+    return cfg, m
+
+
+@pytest.mark.parametrize("backend", ["torch", "numpy"])
+def test_latent_incremental_equals_full_recompute(backend):
+    """With a latent, the stepper given the same z per frame equals the full forward."""
+    cfg, m = latent_net()
+    x, skel, traj, types = inputs(cfg, b=2, t=50)
+    z = torch.randn(2, 50, cfg.latent, generator=torch.Generator().manual_seed(3))
+    with torch.no_grad():
+        full = m(x, skel, traj, types, z=z)["mean"]
+        zero = m(x, skel, traj, types)["mean"]
+    st = m.stepper(2, backend)
+    conv = (lambda a: a) if backend == "torch" else (lambda a: a.numpy())
+    st.set_static(conv(skel), conv(types))
+    with torch.inference_mode():
+        steps = [torch.as_tensor(st.step(conv(x[:, t]), conv(traj[:, t]), conv(z[:, t]))) for t in range(50)]
+    mean = torch.stack(steps, 1)[..., :cfg.n_continuous]
+    assert torch.allclose(mean, full, atol=1e-4)
+    assert not torch.allclose(full, zero, atol=1e-2)  # z matters
+
+
+def test_latent_posterior_sample_in_training_mean_in_eval():
+    cfg, m = latent_net()
+    x, skel, traj, types = inputs(cfg, t=20)
+    target = torch.randn_like(x)
+    with torch.no_grad():
+        ev = m(x, skel, traj, types, target_x=target)
+        z_mean = ev["z_mean"]
+        by_z = m(x, skel, traj, types, z=z_mean)["mean"]
+        m.train()
+        m.dropout.p = 0.0
+        tr = m(x, skel, traj, types, target_x=target)
+    assert ev["z_logvar"].shape == z_mean.shape == (2, 20, cfg.latent)
+    assert torch.allclose(ev["mean"], by_z, atol=1e-6)          # eval: z is the posterior mean
+    assert not torch.allclose(tr["mean"], ev["mean"], atol=1e-3)  # training: a sample
+    assert "z_mean" not in m(x, skel, traj, types)                 # no target: z = 0, no posterior
+    assert not ev["prior_mean"].any() and not ev["prior_logvar"].any()  # N(0, I)
+
+
+def test_learned_prior_gives_the_mean_outputs_z():
+    """With a learned prior the mean output decodes the prior's mean given the past."""
+    cfg, m = latent_net(learned_prior=True)
+    x, skel, traj, types = inputs(cfg, t=20)
+    with torch.no_grad():
+        skip = m.trunk(x, skel, traj, types)
+        prior_mean, prior_logvar = m.prior_of(skip)
+        out = m(x, skel, traj, types, target_x=torch.randn_like(x))
+        assert torch.allclose(m(x, skel, traj, types)["mean"], m(x, skel, traj, types, z=prior_mean)["mean"])
+    assert prior_mean.abs().min() > 0 and torch.equal(out["prior_mean"], prior_mean)
+    assert torch.equal(out["prior_logvar"], prior_logvar)
+
+
+def test_gaussian_kl_hand_computed():
+    from mocapviz.training.losses import gaussian_kl
+    mean = torch.tensor([0.0, 1.0, 0.0, 0.0])
+    logvar = torch.tensor([0.0, 0.0, math.log(4.0), 0.0])
+    prior_mean = torch.tensor([0.0, 0.0, 0.0, 2.0])
+    prior_logvar = torch.tensor([0.0, 0.0, 0.0, math.log(4.0)])
+    want = torch.tensor([0.0, 0.5, 0.5 * (4.0 - 1.0 - math.log(4.0)), 0.5 * (math.log(4.0) + 0.25)])
+    assert torch.allclose(gaussian_kl(mean, logvar, prior_mean, prior_logvar), want, atol=1e-6)
+
+
+def test_latent_loss_adds_the_weighted_kl():
+    cfg, m = latent_net()
+    x, skel, traj, types = inputs(cfg, t=20)
+    target = torch.randn_like(x)
+    target[..., cfg.n_continuous:] = (target[..., cfg.n_continuous:] > 0).float()
+    with torch.no_grad():
+        out = m(x, skel, traj, types, target_x=target)
+    tt = torch.randn(2, 20, cfg.n_traj)
+    a = ccnet_loss(out, target, tt, cfg.n_continuous, kl_weight=0.0)
+    b = ccnet_loss(out, target, tt, cfg.n_continuous, kl_weight=0.5)
+    kl = (0.5 * (out["z_mean"] ** 2 + out["z_logvar"].exp() - 1 - out["z_logvar"])).sum(-1).mean()  # N(0, I) prior
+    assert torch.allclose(b["kl"], kl) and float(kl) > 0
+    assert torch.allclose(b["loss"] - a["loss"], 0.5 * kl, atol=1e-6 * float(a["loss"].abs()))
+
+
+def test_latent_rollout_steps_with_the_posterior_mean():
+    """A latent model's rolled-out frame is the full forward's mean on the rolled-out inputs,
+    with z the posterior mean given the true next frame."""
+    from mocapviz.training.trainer import rolled_out
+    cfg, m = latent_net(residual_ranges=((0, 10),))
+    x, skel, traj, types = inputs(cfg, t=12)
+    target = torch.randn_like(x)
+    b = dict(x=x, skel=skel, traj=traj, types=types, target_x=target,
+             varying=torch.ones(cfg.n_continuous, dtype=torch.bool))
+    rolled = rolled_out(m, b, start=5)
+    with torch.no_grad():
+        mean = m(rolled, skel, traj, types, target_x=target)["mean"]
+        prior = m(rolled, skel, traj, types)["mean"]
+    n = cfg.n_continuous
+    assert torch.equal(rolled[:, :5], x[:, :5])
+    assert torch.allclose(rolled[:, 5:, :n], mean[:, 4:-1], atol=1e-4)
+    assert not torch.allclose(rolled[:, 5:, :n], prior[:, 4:-1], atol=1e-3)

@@ -68,6 +68,15 @@ class CCNet(nn.Module):
         self.encoder = nn.Conv1d(cfg.n_x, cfg.channels, 1)
         self.blocks = nn.ModuleList(SRB(cfg, d) for d in cfg.dilations)
         self.decoder = nn.Conv1d(cfg.skip_channels, cfg.n_out, 1)
+        if cfg.latent:
+            self.z_in = nn.Linear(cfg.latent, cfg.skip_channels, bias=False)
+            self.posterior = nn.Sequential(
+                nn.Linear(cfg.skip_channels + 2 * cfg.n_x, cfg.posterior_hidden), nn.ELU(),
+                nn.Linear(cfg.posterior_hidden, cfg.posterior_hidden), nn.ELU(),
+                nn.Linear(cfg.posterior_hidden, 2 * cfg.latent))
+        if cfg.latent and cfg.learned_prior:
+            self.prior = nn.Sequential(nn.Linear(cfg.skip_channels, cfg.posterior_hidden), nn.ELU(),
+                                       nn.Linear(cfg.posterior_hidden, 2 * cfg.latent))
 
     @classmethod
     def config_for(cls, train_cfg, layout) -> CCNetConfig:
@@ -75,6 +84,7 @@ class CCNet(nn.Module):
         return make_config(train_cfg.size, n_x=layout.n_x, n_skel=layout.n_skel, n_traj=layout.n_traj,
                            n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout,
                            residual=train_cfg.residual, residual_gain=train_cfg.residual_gain,
+                           latent=train_cfg.latent, learned_prior=train_cfg.learned_prior,
                            residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
                                                  for b in train_cfg.residual_blocks))
 
@@ -91,19 +101,57 @@ class CCNet(nn.Module):
     def _ctrl(c):
         return c if c.dim() == 3 else c[:, None]
 
-    def forward(self, x, skel, traj, types) -> dict[str, torch.Tensor]:
+    def forward(self, x, skel, traj, types, target_x=None, z=None) -> dict[str, torch.Tensor]:
         """x (B, T, n_x); skel (B, n_skel) or (B, T, n_skel); traj (B, T, n_traj);
-        types (B, n_types) or (B, T, n_types). Returns (B, T, .) tensors."""
+        types (B, n_types) or (B, T, n_types). Returns (B, T, .) tensors.
+
+        With a latent (``cfg.latent``): ``target_x`` (B, T, n_x), the true next frames, gives z
+        from the posterior (a sample in training mode, its mean in eval mode; the output then
+        also holds ``z_mean``, ``z_logvar`` and the prior's ``prior_mean``, ``prior_logvar``);
+        else ``z`` (B, T, latent) is used, or the prior's mean."""
+        skip = self.trunk(x, skel, traj, types)
+        extra = {}
+        if self.cfg.latent:
+            if target_x is not None:
+                z_mean, z_logvar = self.posterior_of(skip, x, target_x)
+                z = z_mean + torch.exp(0.5 * z_logvar) * torch.randn_like(z_mean) if self.training else z_mean
+                prior_mean, prior_logvar = self.prior_of(skip)
+                extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
+            elif z is None:
+                z = self.prior_of(skip)[0]
+        out = self.split_output(self.head(skip, z))
+        if self.cfg.residual_slices:
+            out["mean"] = self.cfg.add_residual(out["mean"].clone(), x)
+        return dict(out, **extra)
+
+    def trunk(self, x, skel, traj, types) -> torch.Tensor:
+        """The causal stack: the skip sum (B, T, skip_channels) before the decoder's ReLU."""
         h = torch.relu(F.linear(self.dropout(x), self.encoder.weight[:, :, 0], self.encoder.bias))
         skel, traj, types = self._ctrl(skel), self._ctrl(traj), self._ctrl(types)
         skip = 0
         for blk in self.blocks:
             h, s = blk(h, skel, traj, types)
             skip = skip + s
-        out = self.split_output(F.linear(torch.relu(skip), self.decoder.weight[:, :, 0], self.decoder.bias))
-        if self.cfg.residual_slices:
-            out["mean"] = self.cfg.add_residual(out["mean"].clone(), x)
-        return out
+        return skip
+
+    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None) -> torch.Tensor:
+        """The decoder: raw output (..., n_out) from the skip sum (and z, with a latent)."""
+        if self.cfg.latent:
+            skip = skip + self.z_in(z)
+        return F.linear(torch.relu(skip), self.decoder.weight[:, :, 0], self.decoder.bias)
+
+    def posterior_of(self, skip, x, target_x) -> tuple[torch.Tensor, torch.Tensor]:
+        """q(z | past, x_t, x_{t+1}): its mean and log-variance (..., latent)."""
+        p = self.posterior(torch.cat([skip, x, target_x], -1))
+        return p[..., :self.cfg.latent], p[..., self.cfg.latent:].clamp(-12.0, 6.0)
+
+    def prior_of(self, skip) -> tuple[torch.Tensor, torch.Tensor]:
+        """p(z | past): its mean and log-variance (..., latent); N(0, I) without a learned prior."""
+        if not self.cfg.learned_prior:
+            zero = skip.new_zeros(skip.shape[:-1] + (self.cfg.latent,))
+            return zero, zero
+        p = self.prior(skip)
+        return p[..., :self.cfg.latent], p[..., self.cfg.latent:].clamp(-12.0, 6.0)
 
     def split_output(self, out: torch.Tensor) -> dict[str, torch.Tensor]:
         """Named parts of the raw decoder output (..., n_out), with sigma = max(exp(-s), sigma_min)."""

@@ -36,6 +36,19 @@ class CCNetConfig:
     # (1 - g) x_t itself, from the features it has learnt, so a drift it cannot represent decays
     # by g per frame while the motion it can represent is kept.
     residual_gain: float = 1.0
+    # latent: size of a per-frame latent z (a conditional VAE on top of the causal stack, as in
+    # Ling et al. 2020's motion VAE; 0 = the paper's network). The decoder sees the skip sum plus
+    # a projection of z before its ReLU; in training z comes from a posterior that also sees the
+    # true next frame, in generation from N(0, I) (sampling) or 0 (the mean). Issue 9: a
+    # Gaussian output trained on one-step targets averages the possible continuations (the mean
+    # freezes) and its per-frame sigma is far larger than real frame-to-frame change (samples are
+    # noise); z carries which continuation, so the decoder need not average.
+    latent: int = 0
+    posterior_hidden: int = 256
+    # learned_prior: z's prior is N(mu(past), sigma(past)^2) from the skip sum (a conditional
+    # prior, as in VRNN-style sequence VAEs) instead of N(0, I); the mean output then uses the
+    # prior's mean, the likeliest z for this past, not 0.
+    learned_prior: bool = False
 
     def __post_init__(self):
         if self.kernel_size != 2:
@@ -46,6 +59,8 @@ class CCNetConfig:
         object.__setattr__(self, "residual_ranges", tuple((int(a), int(b)) for a, b in self.residual_ranges))
         if not 0.0 < self.residual_gain <= 1.0:
             raise ValueError(f"residual_gain must lie in (0, 1], got {self.residual_gain}")
+        if self.latent < 0:
+            raise ValueError(f"latent must be >= 0, got {self.latent}")
         if any(not 0 <= a < b <= self.n_continuous for a, b in self.residual_ranges):
             raise ValueError(f"residual_ranges must lie in [0, {self.n_continuous}): {self.residual_ranges}")
 

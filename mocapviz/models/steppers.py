@@ -34,6 +34,7 @@ class _StepWeights:
     skip_b: torch.Tensor = None
     dec_w: torch.Tensor = None
     dec_b: torch.Tensor = None
+    z_w: torch.Tensor = None      # (latent, S): z's projection onto the skip sum (cfg.latent only)
 
 
 class CCNetStepper:
@@ -76,6 +77,8 @@ class CCNetStepper:
             w.skip_b = skip_b.clone() if torch.is_tensor(skip_b) else torch.zeros(cfg.skip_channels, dtype=dtype)
             w.dec_w = model.decoder.weight[:, :, 0].T.to(dtype).contiguous()
             w.dec_b = model.decoder.bias.to(dtype).clone()
+            if cfg.latent:
+                w.z_w = model.z_in.weight.T.to(dtype).contiguous()
         self.w = w
         self.dtype = dtype
         self._static = None
@@ -100,9 +103,20 @@ class CCNetStepper:
             self._static = torch.addmm(self.w.ctrl_b, torch.cat([skel, types], 1).to(self.dtype),
                                        self.w.ctrl_static_w)
 
-    def step(self, x: torch.Tensor, traj: torch.Tensor) -> torch.Tensor:
-        """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}; returns the raw decoder
-        output (B, n_out) for frame t+1 (split it with ``CCNet.split_output``)."""
+    def step(self, x: torch.Tensor, traj: torch.Tensor, z: torch.Tensor | None = None) -> torch.Tensor:
+        """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}, z (B, latent) the latent of
+        a model with one (None: 0); returns the raw decoder output (B, n_out) for frame t+1
+        (split it with ``CCNet.split_output``)."""
+        return self.head(self.trunk_step(x, traj), z)
+
+    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None) -> torch.Tensor:
+        """``CCNet.head``: the raw output from the skip sum of :meth:`trunk_step` (and z)."""
+        if z is not None and self.w.z_w is not None:
+            skip = torch.addmm(skip, z.to(self.dtype), self.w.z_w)
+        return torch.addmm(self.w.dec_b, skip.relu(), self.w.dec_w)
+
+    def trunk_step(self, x: torch.Tensor, traj: torch.Tensor) -> torch.Tensor:
+        """Advance one frame; returns the skip sum (B, S) before the decoder's ReLU."""
         w = self.w
         c = self.cfg.channels
         nb = len(self.cfg.dilations)
@@ -120,8 +134,7 @@ class CCNetStepper:
             if i + 1 < nb:                          # the last block's residual feeds nothing
                 torch.addmm(cur[i], gates[i], w.res_w[i], out=cur[i + 1])
         self.t += 1
-        skip = torch.baddbmm(self._skip_b, gates, self._skip_w).sum(0).relu_()
-        return torch.addmm(w.dec_b, skip, w.dec_w)
+        return torch.baddbmm(self._skip_b, gates, self._skip_w).sum(0)
 
 
 class NumpyStepper:
@@ -140,6 +153,7 @@ class NumpyStepper:
         self.cur_w = [f(x) for x in w.cur_w]
         self.res_w = [f(x) for x in w.res_w]
         self.skip_w, self.skip_b, self.dec_w, self.dec_b = f(w.skip_w), f(w.skip_b), f(w.dec_w), f(w.dec_b)
+        self.z_w = None if w.z_w is None else f(w.z_w)
         self._static = None
         self.reset()
 
@@ -154,7 +168,20 @@ class NumpyStepper:
         st = np.concatenate([np.asarray(skel, np.float32), np.asarray(types, np.float32)], 1)
         self._static = st @ self.ctrl_static_w + self.ctrl_b
 
-    def step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:
+    def step(self, x: np.ndarray, traj: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
+        return self.head(self.trunk_step(x, traj), z)
+
+    def head(self, skip: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
+        """``CCNet.head`` on numpy arrays (``skip`` is overwritten)."""
+        if z is not None and self.z_w is not None:
+            skip += np.asarray(z, np.float32) @ self.z_w
+        np.maximum(skip, 0, out=skip)
+        out = skip @ self.dec_w
+        out += self.dec_b
+        return out
+
+    def trunk_step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:
+        """Advance one frame; returns the skip sum (B, S) before the decoder's ReLU."""
         c, nb, t = self.cfg.channels, len(self.rings), self.t
         h = x @ self.enc_w
         h += self.enc_b
@@ -179,7 +206,4 @@ class NumpyStepper:
         self.t = t + 1
         skip = g_all @ self.skip_w
         skip += self.skip_b
-        np.maximum(skip, 0, out=skip)
-        out = skip @ self.dec_w
-        out += self.dec_b
-        return out
+        return skip

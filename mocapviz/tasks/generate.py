@@ -2,7 +2,8 @@
 
 Seed frames are fed through the network (teacher forcing), then each new frame is the mean of
 the predicted Gaussian (or a sample from it) with the predicted contact labels, fed back as the
-next input. The trajectory control c^d comes from one of:
+next input. A CCNet with a latent (``CCNetConfig.latent``) samples its z from the prior per frame
+instead and writes the decoder's mean (the prior's mean z for the mean output). The trajectory control c^d comes from one of:
 
 - ``traj``: an array of raw c^d per frame (e.g. taken from a clip; repeated cyclically);
 - ``path``: a user path of world ground points (X, Z) per frame; c^d is recomputed every frame
@@ -64,7 +65,8 @@ class Generator:
         self.norm = normaliser
         self.batch = batch
         self.sample = sample
-        # sampling draws from N(mean, (temperature * sigma)^2): 1 is the predicted Gaussian, 0 the mean
+        # sampling draws from N(mean, (temperature * sigma)^2): 1 is the predicted Gaussian, 0 the
+        # mean; a latent model draws z from its prior, spread scaled by temperature, instead (_latent)
         self.temperature = float(temperature)
         self.rng = np.random.default_rng(seed)
         self.cfg = model.cfg
@@ -73,9 +75,10 @@ class Generator:
         self.backend = ("numpy" if batch <= 8 else "torch") if backend == "auto" else backend
         self.stepper = model.stepper(batch, self.backend)
         if self.backend == "numpy":
-            self._step = self.stepper.step
+            self._trunk, self._head = self.stepper.trunk_step, self.stepper.head
         else:
-            self._step = lambda x, c: self.stepper.step(torch.from_numpy(x), torch.from_numpy(c)).numpy()
+            self._trunk = lambda x, c: self.stepper.trunk_step(torch.from_numpy(x), torch.from_numpy(c))
+            self._head = lambda skip, z: self.stepper.head(skip, None if z is None else torch.from_numpy(z)).numpy()
         self.constant = normaliser.constant_channels()  # written as their training value (0 normalised)
         self.keep_outputs = False     # keep every raw step output (tests / benchmark)
         self.raw_outputs: list[np.ndarray] = []
@@ -84,7 +87,7 @@ class Generator:
         """Frame t+1 into ``dest`` (B, n_x): the mean (or a Gaussian sample) and the contact
         labels (logit > 0); returns the predicted c^d (normalised), a view of ``raw``."""
         n, out = self.cfg.n_continuous, self.parts
-        if self.sample:
+        if self.sample and not self.cfg.latent:  # a latent model samples z instead (_latent)
             sigma = np.maximum(np.exp(-raw[:, out["s"]]), self.cfg.sigma_min)
             noise = self.rng.standard_normal(sigma.shape, dtype=np.float32)
             dest[:, :n] = raw[:, out["mean"]] + self.temperature * sigma * noise
@@ -93,6 +96,23 @@ class Generator:
         dest[:, :n][:, self.constant] = 0.0
         np.greater(raw[:, out["contact_logits"]], 0, out=dest[:, n:], casting="unsafe")
         return raw[:, out["traj_mean"]]
+
+    def _step(self, x: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """The raw output (B, n_out) for frame t+1 from frame t and c^d_{t+1} (numpy arrays)."""
+        skip = self._trunk(x, c)
+        return self._head(skip, self._latent(skip) if self.cfg.latent else None)
+
+    def _latent(self, skip) -> np.ndarray:
+        """z of a latent model for the next frame, from its prior given the past (N(0, I) unless
+        learned): the prior's mean, or a draw from it with the spread scaled by ``temperature``
+        when sampling. The frame is then the decoder's mean: the variation comes from z, not
+        from per-frame Gaussian noise on the frame."""
+        with torch.no_grad():
+            mean, logvar = (t.numpy() for t in self.model.prior_of(torch.as_tensor(skip)))
+        if not self.sample:
+            return mean
+        noise = self.rng.standard_normal(mean.shape, dtype=np.float32)
+        return mean + self.temperature * np.exp(0.5 * logvar) * noise
 
     def run(self, seed_x: np.ndarray, skel: np.ndarray, types: np.ndarray, n_frames: int,
             traj: np.ndarray | None = None, path: np.ndarray | None = None,

@@ -35,6 +35,9 @@ class TrainConfig:
     residual_gain: float = 1.0      # ... the mean adds this times x_t (CCNetConfig.residual_gain)
     feedback_passes: int = 0        # inputs of the window's second half: the model's own means, k passes
     rollout_from: int = 0            # inputs from this frame of the window on: the model's own free-running means (0: off)
+    latent: int = 0                 # size of CCNet's per-frame latent z (CCNetConfig.latent; 0: the paper's)
+    kl_weight: float = 1.0          # weight of the latent's KL term (1: the ELBO)
+    learned_prior: bool = False     # z's prior from the past (CCNetConfig.learned_prior), not N(0, I)
     optimizer: str = "rmsprop"      # "rmsprop" (the paper's) or "adam" (OPTIMIZERS)
     seed: int = 0
     eval_every: int = 250

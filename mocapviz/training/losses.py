@@ -69,7 +69,8 @@ def smoothness(mean: torch.Tensor, channels: torch.Tensor | None = None) -> torc
 
 
 def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_continuous: int,
-               lambdas=LAMBDAS, channels: torch.Tensor | None = None, nll_beta: float = 0.0) -> dict[str, torch.Tensor]:
+               lambdas=LAMBDAS, channels: torch.Tensor | None = None, nll_beta: float = 0.0,
+               kl_weight: float = 1.0) -> dict[str, torch.Tensor]:
     """out: the model's dict; target_x (B, T, n_x) = x_{t+1}; target_traj (B, T, 12) = c^d_{t+2};
     the first ``n_continuous`` channels of x are Gaussian, the rest contact labels; ``channels``
     (n_continuous,) bool: the continuous channels that count in L_G and L_s (None: all);
@@ -86,14 +87,24 @@ def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_c
                                                  reduction="none").sum(-1).mean()
     smooth = smoothness(out["mean"], channels)
     total = gaussian + l1 * smooth + l2 * contact + l3 * traj_nll
-    return dict(loss=total, nll=nll, smooth=smooth, contact=contact, traj_nll=traj_nll)
+    parts = dict(nll=nll, smooth=smooth, contact=contact, traj_nll=traj_nll)
+    if "z_mean" in out:  # a latent model (CCNetConfig.latent): the ELBO's KL(posterior || prior) per frame
+        parts["kl"] = gaussian_kl(out["z_mean"], out["z_logvar"], out["prior_mean"], out["prior_logvar"]).sum(-1).mean()
+        total = total + kl_weight * parts["kl"]
+    return dict(loss=total, **parts)
 
 
-def ccnet_window_loss(out: dict, batch: dict, cfg, lambdas=LAMBDAS, nll_beta: float = 0.0) -> dict[str, torch.Tensor]:
+def gaussian_kl(mean, logvar, prior_mean, prior_logvar) -> torch.Tensor:
+    """Element-wise KL(N(mean, exp(logvar)) || N(prior_mean, exp(prior_logvar))) in nats."""
+    return 0.5 * (prior_logvar - logvar + (torch.exp(logvar) + (mean - prior_mean) ** 2) / torch.exp(prior_logvar) - 1.0)
+
+
+def ccnet_window_loss(out: dict, batch: dict, cfg, lambdas=LAMBDAS, nll_beta: float = 0.0,
+                      kl_weight: float = 1.0) -> dict[str, torch.Tensor]:
     """:func:`ccnet_loss` on a training batch of :class:`mocapviz.training.windows.WindowData`
     (its ``varying`` channels count in L_G and L_s)."""
     return ccnet_loss(out, batch["target_x"], batch["target_traj"], cfg.n_continuous, lambdas, batch.get("varying"),
-                     nll_beta)
+                      nll_beta, kl_weight)
 
 
 LOSSES = {"ccnet": ccnet_window_loss}

@@ -43,8 +43,15 @@ from mocapviz.training.runs import BEST, CHECKPOINT, LOG, best_row, read_log, wr
 from mocapviz.training.windows import WindowData
 
 
+def model_inputs(model, b: dict) -> dict:
+    """The batch keys the model's forward takes in training: its ``input_names``, and the true
+    next frames for a CCNet with a latent (its posterior sees them)."""
+    names = model.input_names + (("target_x",) if getattr(model.cfg, "latent", 0) else ())
+    return {k: b[k] for k in names}
+
+
 @torch.no_grad()
-def fed_back(net, b: dict, input_names, passes: int) -> torch.Tensor:
+def fed_back(net, b: dict, input_names: dict, passes: int) -> torch.Tensor:
     """Inputs ``b["x"]`` (B, T, n_x) whose second half is the model's own predicted means, as in
     generation (``TrainConfig.feedback_passes``).
 
@@ -52,11 +59,12 @@ def fed_back(net, b: dict, input_names, passes: int) -> torch.Tensor:
     previous one: after k passes an input of the second half carries the errors of up to k chained
     predictions, so the network trains on its own errors (i.i.d. input noise does not look like
     them). The constant channels (``b["varying"]`` false) and the contact labels stay the data's.
+    ``input_names``: the model's inputs (:func:`model_inputs`), whose ``x`` is replaced.
     """
     x, varying = b["x"], b["varying"]
     t0, n = x.shape[1] // 2, varying.shape[0]
     for _ in range(passes):
-        mean = net(**{k: (x if k == "x" else b[k]) for k in input_names})["mean"]
+        mean = net(**dict(input_names, x=x))["mean"]
         new = x.clone()
         new[:, t0:, :n][..., varying] = mean[:, t0 - 1:-1][..., varying]  # the mean at t-1 predicts frame t
         x = new
@@ -81,9 +89,12 @@ def rolled_out(model, b: dict, start: int) -> torch.Tensor:
     stepper = model.stepper(x.shape[0], "torch")
     stepper.set_static(b["skel"], b["types"])
     for t in range(x.shape[1] - 1):
-        raw = stepper.step(x[:, t], b["traj"][:, t])
+        skip = stepper.trunk_step(x[:, t], b["traj"][:, t])
         if t + 1 < start:
             continue
+        # a latent model's z: the posterior mean given the true next frame, as in its training
+        z = model.posterior_of(skip, x[:, t], b["target_x"][:, t])[0] if cfg.latent else None
+        raw = stepper.head(skip, z)
         mean = cfg.add_residual(raw[:, mean_at].clone(), x[:, t])
         x[:, t + 1, :n][:, varying] = mean[:, varying]
     return x
@@ -124,16 +135,18 @@ def lr_at(cfg: TrainConfig, step: int) -> float:
 
 
 @torch.no_grad()
-def evaluate(model, data: WindowData, pairs: np.ndarray, lambdas=LAMBDAS, batch: int = 128) -> dict:
-    """Mean per-frame losses (no noise, dropout off) over the windows ``pairs``."""
+def evaluate(model, data: WindowData, pairs: np.ndarray, lambdas=LAMBDAS, batch: int = 128,
+             kl_weight: float = 1.0) -> dict:
+    """Mean per-frame losses (no noise, dropout off) over the windows ``pairs``. A latent model's
+    NLL is given z at its posterior mean (with the true next frame), plus the KL."""
     was = model.training
     model.eval()
     loss_fn = LOSSES[model.name]
     sums, n = {}, 0
     for i in range(0, len(pairs), batch):
         b = data.batch(pairs[i:i + batch])
-        out = model(**{k: b[k] for k in model.input_names})
-        parts = loss_fn(out, b, model.cfg, lambdas)
+        out = model(**model_inputs(model, b))
+        parts = loss_fn(out, b, model.cfg, lambdas, kl_weight=kl_weight)
         k = len(pairs[i:i + batch])
         for name, v in parts.items():
             sums[name] = sums.get(name, 0.0) + float(v) * k
@@ -200,13 +213,13 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         if cfg.offset_noise_std:
             b["x"] = b["x"] + offset_noise(b["x"], cfg.offset_noise_std, model.cfg.n_continuous)
         if cfg.feedback_passes:
-            b["x"] = fed_back(net, b, model.input_names, cfg.feedback_passes)
+            b["x"] = fed_back(net, b, model_inputs(model, b), cfg.feedback_passes)
         if cfg.rollout_from:
             b["x"] = rolled_out(model, b, cfg.rollout_from)
-        out = net(**{k: b[k] for k in model.input_names})
+        out = net(**model_inputs(model, b))
         if cfg.rollout_from:  # sigma learns from the seed part only (see rollout_sigma)
             out = rollout_sigma(out, cfg.rollout_from)
-        parts = loss_fn(out, b, model.cfg, cfg.lambdas, nll_beta=cfg.nll_beta)
+        parts = loss_fn(out, b, model.cfg, cfg.lambdas, nll_beta=cfg.nll_beta, **_kl(model, cfg))
         opt.zero_grad(set_to_none=True)
         parts["loss"].backward()
         opt.step()
@@ -218,8 +231,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         # evaluate on the schedule only (not at a stop_after step), so interrupted runs log and
         # select exactly what an uninterrupted run does
         if done % cfg.eval_every == 0 or done == cfg.steps:
-            va = evaluate(model, data, data.val, cfg.lambdas)
-            ev = evaluate(model, data, data.test, cfg.lambdas)
+            va = evaluate(model, data, data.val, cfg.lambdas, **_kl(model, cfg))
+            ev = evaluate(model, data, data.test, cfg.lambdas, **_kl(model, cfg))
             row.update(val_nll=round(va["nll"], 5), val_loss=round(va["loss"], 5),
                        test_nll=round(ev["nll"], 5), test_loss=round(ev["loss"], 5))
             # select on the logged (rounded) value, so that a resumed run restores the same best
@@ -239,6 +252,11 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     if world > 1:
         dist.barrier()
     return ckpt
+
+
+def _kl(model, cfg: TrainConfig) -> dict:
+    """The KL weight, for the loss of a model with a latent (other models' losses have none)."""
+    return dict(kl_weight=cfg.kl_weight) if getattr(model.cfg, "latent", 0) else {}
 
 
 def _dataset_meta(ds) -> dict:
