@@ -112,6 +112,34 @@ def test_rollout_run_trains_and_resumes_exactly(ds, tmp_path):
     assert not torch.equal(init.decoder.weight, trained.decoder.weight)
 
 
+def test_latent_rollout_run_trains_logs_the_kl_and_resumes_exactly(ds, tmp_path):
+    """A latent CCNet (learned prior) with rollouts and type-balanced windows: the same losses
+    whether or not it was interrupted, a positive KL in the log, and moving prior weights."""
+    cfg = replace(TINY, latent=4, learned_prior=True, rollout_from=10, type_balance=1.0, dropout=0.0)
+    full = train(ds, cfg, tmp_path / "full", progress=False)
+    train(ds, cfg, tmp_path / "part", progress=False, stop_after=4)
+    train(ds, cfg, tmp_path / "part", progress=False)
+    a = rows(tmp_path / "full")
+    assert a == rows(tmp_path / "part") and all(float(r["kl"]) > 0 for r in a)
+    torch.manual_seed(cfg.seed)
+    init = CCNet(cfg.model_config(ds.layout))
+    trained, _, _ = load_checkpoint(full)
+    assert trained.cfg.latent == 4 and trained.cfg.learned_prior
+    assert not torch.equal(init.prior[0].weight, trained.prior[0].weight)
+
+
+def test_type_balance_draws_every_type_equally_often(ds):
+    data = WindowData(ds, 30)
+    counts = np.bincount(data.train_types)
+    present = counts > 0
+    assert counts[present].max() > 5 * counts[present].min()  # unbalanced to start with
+    drawn = data.draw_train(np.random.default_rng(0), 40_000, type_balance=1.0)
+    share = np.bincount(ds.clips.type_index.values[drawn[:, 0]], minlength=len(counts))[present] / 40_000
+    np.testing.assert_allclose(share, 1 / present.sum(), atol=0.01)
+    uniform = data.draw_train(np.random.default_rng(0), 10, type_balance=0.0)
+    np.testing.assert_array_equal(uniform, data.train[np.random.default_rng(0).integers(len(data.train), size=10)])
+
+
 def test_resume_restores_the_best_so_far_from_the_log(ds, tmp_path):
     # stop at 6 (not an eval step): nothing extra is evaluated or selected at the interruption
     cfg = replace(TINY, steps=12)

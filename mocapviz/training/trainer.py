@@ -208,7 +208,7 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
             group["lr"] = lr
         rng = np.random.default_rng([cfg.seed, rank, step])
         torch.manual_seed(int(rng.integers(2 ** 62)))
-        b = data.batch(data.train[rng.integers(len(data.train), size=per_rank)])
+        b = data.batch(data.draw_train(rng, per_rank, cfg.type_balance))
         b["x"] = b["x"] + cfg.noise_std * torch.randn_like(b["x"])  # input noise (the targets stay clean)
         if cfg.offset_noise_std:
             b["x"] = b["x"] + offset_noise(b["x"], cfg.offset_noise_std, model.cfg.n_continuous)

@@ -32,6 +32,17 @@ class WindowData:
         # so every frame counts at every context length; ~3400 windows, a few seconds per evaluation
         self.val = ds.window_starts("val", window, stride=1)
         self.n_train_frames = int(sum(r.stop - r.start for r in ds.clips.itertuples() if r.split == "train"))
+        self.train_types = ds.clips.type_index.values[self.train[:, 0]]
+
+    def draw_train(self, rng: np.random.Generator, n: int, type_balance: float = 0.0) -> np.ndarray:
+        """``n`` training windows drawn with replacement: uniformly (``type_balance`` 0), or each
+        weighted by 1 / (training windows of its motion type)^type_balance, so 1 draws every type
+        equally often (in dataset v4 walks are 62 % of the 60-frame windows, hops 0.2 %)."""
+        if not type_balance:
+            return self.train[rng.integers(len(self.train), size=n)]
+        counts = np.bincount(self.train_types)
+        p = counts[self.train_types].astype(np.float64) ** -type_balance
+        return self.train[rng.choice(len(self.train), size=n, p=p / p.sum())]
 
     def batch(self, pairs: np.ndarray) -> dict[str, torch.Tensor]:
         """Inputs x_t, controls c_{t+1}, targets x_{t+1} and c^d_{t+2} for windows (clip, start)."""
