@@ -385,3 +385,16 @@ def test_latent_rollout_steps_with_the_posterior_mean():
     assert torch.equal(rolled[:, :5], x[:, :5])
     assert torch.allclose(rolled[:, 5:, :n], mean[:, 4:-1], atol=1e-4)
     assert not torch.allclose(rolled[:, 5:, :n], prior[:, 4:-1], atol=1e-3)
+
+
+def test_unguided_rollout_steps_with_the_learned_priors_mean():
+    """``guided=False`` (the drift table's free run): z is the prior's mean, as in generation."""
+    from mocapviz.training.trainer import rolled_out
+    cfg, m = latent_net(learned_prior=True)
+    x, skel, traj, types = inputs(cfg, t=12)
+    b = dict(x=x, skel=skel, traj=traj, types=types, target_x=torch.randn_like(x),
+             varying=torch.ones(cfg.n_continuous, dtype=torch.bool))
+    rolled = rolled_out(m, b, start=5, guided=False)
+    with torch.no_grad():
+        mean = m(rolled, skel, traj, types)["mean"]
+    assert torch.allclose(rolled[:, 5:, :cfg.n_continuous], mean[:, 4:-1], atol=1e-4)

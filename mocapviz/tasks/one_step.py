@@ -90,7 +90,7 @@ def drift_table(model, data, pairs: np.ndarray, start: int, depths=(1, 5, 10, 30
     if start + max(depths) > data.window:
         raise ValueError(f"windows of {data.window} frames cannot reach depth {max(depths)} after frame {start}")
     b = data.batch(np.asarray(pairs))
-    x = rolled_out(model, b, start)
+    x = rolled_out(model, b, start, guided=False)  # a latent model runs on its prior's mean
     sl = data.layout.x_blocks[block]
     keep = b["varying"][sl]
     truth = b["x"][:, :, sl][..., keep]

@@ -72,7 +72,7 @@ def fed_back(net, b: dict, input_names: dict, passes: int) -> torch.Tensor:
 
 
 @torch.no_grad()
-def rolled_out(model, b: dict, start: int) -> torch.Tensor:
+def rolled_out(model, b: dict, start: int, guided: bool = True) -> torch.Tensor:
     """Inputs ``b["x"]`` (B, T, n_x) whose frames from ``start`` on are the model's own
     free-running means, as in generation (``TrainConfig.rollout_from``).
 
@@ -93,7 +93,9 @@ def rolled_out(model, b: dict, start: int) -> torch.Tensor:
         if t + 1 < start:
             continue
         # a latent model's z: the posterior mean given the true next frame, as in its training
-        z = model.posterior_of(skip, x[:, t], b["target_x"][:, t])[0] if cfg.latent else None
+        z = None
+        if cfg.latent:
+            z = model.posterior_of(skip, x[:, t], b["target_x"][:, t])[0] if guided else model.prior_of(skip)[0]
         raw = stepper.head(skip, z)
         mean = cfg.add_residual(raw[:, mean_at].clone(), x[:, t])
         x[:, t + 1, :n][:, varying] = mean[:, varying]
