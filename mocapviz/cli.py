@@ -45,6 +45,9 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     mode.add_argument("--mean", dest="sample", action="store_false", help="take its mean (default)")
     p.add_argument("--temperature", type=float, default=1.0, metavar="T",
                    help="with --sample, draw from N(mean, (T sigma)^2): 1 is the predicted Gaussian (default: %(default)s)")
+    p.add_argument("--noise-correlation", type=float, default=0.0, metavar="RHO",
+                   help="with --sample, the draws' correlation from one frame to the next (0: independent, the "
+                        "paper's; every frame stays a draw of its predicted PDF; default: %(default)s)")
     p.add_argument("--ik", action=argparse.BooleanOptionalAction, default=True,
                    help="foot-contact leg IK against sliding (default: on)")
     p.add_argument("--skeleton-z", type=float, default=3.0, metavar="Z",
@@ -71,7 +74,8 @@ def generate(args) -> None:
     result = generate_from_seed(seed, model, norm, meta, types=args.types or ["walk"], seconds=args.seconds,
                                 switch_every=args.switch_every, path_xz=path, sample=args.sample, ik=args.ik,
                                 seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
-                                skeleton_z=args.skeleton_z, temperature=args.temperature, progress=True)
+                                skeleton_z=args.skeleton_z, temperature=args.temperature,
+                                noise_correlation=args.noise_correlation, progress=True)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_bvh(result.motion, out)

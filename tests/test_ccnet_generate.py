@@ -175,3 +175,14 @@ def test_latent_model_samples_z_and_writes_the_decoders_mean(ds, committed):
     np.testing.assert_array_equal(cold.x_norm, mean.x_norm)
     assert np.abs(hot.x_norm[0, s:, :n] - mean.x_norm[0, s:, :n]).max() > 0.1
     np.testing.assert_array_equal(hot.x_norm[0, s:, :n][:, ~const], inc[0, s - 1:, :n][:, ~const])
+
+
+def test_correlated_draws_keep_unit_variance_with_the_asked_lag_one_correlation(committed):
+    model, norm, _ = committed
+    for rho in (0.0, 0.9):
+        g = Generator(model, norm, sample=True, noise_correlation=rho)
+        e = np.stack([g._draw((1, 200))[0] for _ in range(5000)])          # (frames, channels)
+        lag1 = np.mean([np.corrcoef(e[:-1, j], e[1:, j])[0, 1] for j in range(e.shape[1])])
+        assert abs(e.std() - 1.0) < 0.02 and abs(lag1 - rho) < 0.01
+    with pytest.raises(ValueError, match="noise_correlation"):
+        Generator(model, norm, noise_correlation=1.0)

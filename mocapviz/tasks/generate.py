@@ -58,9 +58,11 @@ class Generator:
     """
 
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
-                 seed: int = 0, backend: str = "auto", temperature: float = 1.0):
+                 seed: int = 0, backend: str = "auto", temperature: float = 1.0, noise_correlation: float = 0.0):
         if temperature < 0:
             raise ValueError(f"temperature must be >= 0, got {temperature}")
+        if not 0.0 <= noise_correlation < 1.0:
+            raise ValueError(f"noise_correlation must lie in [0, 1), got {noise_correlation}")
         self.model = model.eval()
         self.norm = normaliser
         self.batch = batch
@@ -68,6 +70,13 @@ class Generator:
         # sampling draws from N(mean, (temperature * sigma)^2): 1 is the predicted Gaussian, 0 the
         # mean; a latent model draws z from its prior, spread scaled by temperature, instead (_latent)
         self.temperature = float(temperature)
+        # the draws' correlation from one frame to the next (AR(1); 0: independent draws, the
+        # paper's). Every frame's draw is still N(0, 1), so every frame is still a sample of its
+        # predicted PDF; only the joint over time changes. Why: the PDF is of the next frame given
+        # the past, and independent draws make every frame jump by sigma, while a model's errors
+        # are slow drifts, not white noise (issue 9: jitter 25-909x the real clips' with 0).
+        self.noise_correlation = float(noise_correlation)
+        self._noise = None
         self.rng = np.random.default_rng(seed)
         self.cfg = model.cfg
         self.layout = FeatureLayout((self.cfg.n_x - 6) // 12, self.cfg.n_types)
@@ -89,8 +98,7 @@ class Generator:
         n, out = self.cfg.n_continuous, self.parts
         if self.sample and not self.cfg.latent:  # a latent model samples z instead (_latent)
             sigma = np.maximum(np.exp(-raw[:, out["s"]]), self.cfg.sigma_min)
-            noise = self.rng.standard_normal(sigma.shape, dtype=np.float32)
-            dest[:, :n] = raw[:, out["mean"]] + self.temperature * sigma * noise
+            dest[:, :n] = raw[:, out["mean"]] + self.temperature * sigma * self._draw(sigma.shape)
         else:
             dest[:, :n] = raw[:, out["mean"]]
         dest[:, :n][:, self.constant] = 0.0
@@ -111,8 +119,17 @@ class Generator:
             mean, logvar = (t.numpy() for t in self.model.prior_of(torch.as_tensor(skip)))
         if not self.sample:
             return mean
-        noise = self.rng.standard_normal(mean.shape, dtype=np.float32)
-        return mean + self.temperature * np.exp(0.5 * logvar) * noise
+        return mean + self.temperature * np.exp(0.5 * logvar) * self._draw(mean.shape)
+
+    def _draw(self, shape) -> np.ndarray:
+        """This frame's N(0, 1) draws: independent of the last frame's, or AR(1) with lag-one
+        correlation ``noise_correlation`` (rho e_prev + sqrt(1 - rho^2) e_new keeps N(0, 1))."""
+        e = self.rng.standard_normal(shape, dtype=np.float32)
+        rho = self.noise_correlation
+        if rho and self._noise is not None:
+            e = np.float32(rho) * self._noise + np.float32(np.sqrt(1.0 - rho * rho)) * e
+        self._noise = e
+        return e
 
     def run(self, seed_x: np.ndarray, skel: np.ndarray, types: np.ndarray, n_frames: int,
             traj: np.ndarray | None = None, path: np.ndarray | None = None,
@@ -139,6 +156,7 @@ class Generator:
         cur_type = types[:, 0] if per_frame_types else types
         self.stepper.reset()
         self.raw_outputs = []
+        self._noise = None
         set_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
             if self.backend == "torch" else self.stepper.set_static
         set_static(skel_n, cur_type)

@@ -145,7 +145,8 @@ def seed_rig(seed: Motion, names: dict, dataset_meta: dict, normaliser) -> Model
 def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk",), seconds: float = 10.0,
                        switch_every: float | None = None, path_xz=None, sample: bool = False, ik: bool = True,
                        seed_seconds: float = 2.0, joint_map=None, rng_seed: int = 0, skeleton_z: float = 3.0,
-                       temperature: float = 1.0, progress: bool = False) -> SeedGeneration:
+                       temperature: float = 1.0, noise_correlation: float = 0.0,
+                       progress: bool = False) -> SeedGeneration:
     """Continue ``seed`` (a Motion on any skeleton, e.g. from :func:`load_seed`) for ``seconds``.
 
     ``model``, ``normaliser``, ``meta``: a loaded checkpoint (its ``meta['dataset']`` gives the
@@ -155,7 +156,9 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     network's own trajectory); ``joint_map``: file joint -> CCNet joint (dict or JSON file),
     over the automatic name map; ``skeleton_z``: how far (training standard deviations) c^s
     may lie from the training skeletons' mean (see :func:`limit_skeleton`); ``temperature``:
-    with ``sample``, frames are drawn from N(mean, (temperature * sigma)^2).
+    with ``sample``, frames are drawn from N(mean, (temperature * sigma)^2) (a latent model
+    draws z instead); ``noise_correlation``: the draws' correlation from frame to frame
+    (:class:`mocapviz.tasks.generate.Generator`).
 
     The network sees the seed scaled to the training skeletons' mean root height (the output
     is scaled back): a committed model trained on ~20 VICON skeletons crouched to half height
@@ -190,7 +193,8 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     if path_xz is not None:
         ahead = path_points(path_xz, n_gen) * size + end_root[[0, 2]]
         path = np.concatenate([seen.root_positions[1:, [0, 2]], ahead])[None]
-    gen = Generator(model, normaliser, sample=sample, seed=rng_seed, temperature=temperature).run(
+    gen = Generator(model, normaliser, sample=sample, seed=rng_seed, temperature=temperature,
+                    noise_correlation=noise_correlation).run(
         feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
         seed_traj=feats.traj[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
         progress=progress)

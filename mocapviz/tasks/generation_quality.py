@@ -127,7 +127,8 @@ def real_pose_distance(ds, bank: metrics.PoseBank, motion_type: str, n_clips: in
 
 
 def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None, n_seed: int = SEED_FRAMES,
-                       seed: int = 0, temperature: float = 1.0, bank: metrics.PoseBank | None = None) -> dict:
+                       seed: int = 0, temperature: float = 1.0, bank: metrics.PoseBank | None = None,
+                       noise_correlation: float = 0.0) -> dict:
     """Generate ``seconds`` after an ``n_seed``-frame seed from each clip row of ``rows`` (default
     :func:`locomotion_seeds`); the :data:`QUALITY_KEYS` over the second half of the generated frames,
     per clip (``per_clip``: clip name -> dict, plus its ``type``) and as [min, median, max] over
@@ -137,7 +138,8 @@ def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None,
     rows = locomotion_seeds(ds) if rows is None else list(rows)
     x, traj, skel, types = seed_batch(ds, rows, n_seed, model.cfg.n_types)
     n = round(seconds * ds.config.fps)
-    gen = Generator(model, norm, batch=len(rows), sample=sample, seed=seed, temperature=temperature).run(
+    gen = Generator(model, norm, batch=len(rows), sample=sample, seed=seed, temperature=temperature,
+                    noise_correlation=noise_correlation).run(
         x, skel, types, n, seed_traj=traj)
     bank = pose_bank(ds) if bank is None else bank
     refs, per_clip, motions = {}, {}, {}
