@@ -1,6 +1,6 @@
 """CCNet generation speed (incremental vs naive recompute) and pose-level quality, default model, this CPU.
 
-    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_default] [--frames 2000]
+    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_default] [--frames 2000] [--noise-correlation 0]
 
 One character and 64 at once, frames per second of the autoregressive loop (network step plus
 feeding the mean back), with the incremental stepper and with naive recomputation of the last
@@ -77,6 +77,8 @@ def main(argv=None) -> dict:
     p.add_argument("--frames", type=int, default=2000)
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--freeze-seconds", type=float, default=60.0)
+    p.add_argument("--noise-correlation", type=float, default=0.0,
+                   help="sampling draws' correlation from frame to frame (Generator; 0: the paper's)")
     a = p.parse_args(argv)
     torch.set_num_threads(a.threads)
     model, norm, _ = zoo.load(a.model)
@@ -107,7 +109,8 @@ def main(argv=None) -> dict:
     quality = {}
     for mode in ("mean", "sample"):
         t = time.perf_counter()
-        q = generation_quality(model, norm, ds, a.freeze_seconds, sample=mode == "sample")
+        q = generation_quality(model, norm, ds, a.freeze_seconds, sample=mode == "sample",
+                               noise_correlation=a.noise_correlation)
         quality[mode] = q["summary"]
         print(f"{mode} output, {len(q['per_clip'])} x {a.freeze_seconds:g} s, second half ({time.perf_counter() - t:.1f} s), "
               "min / median / max: " + "; ".join(f"{k} {v}" for k, v in q["summary"].items()))
@@ -116,7 +119,8 @@ def main(argv=None) -> dict:
     res = dict(fps_single=round(fps1, 1), fps_batch64=round(fps64, 1), speedup_vs_naive=round(fps1 / naive1, 2),
                fps_naive_single=round(naive1, 1), fps_naive_batch64=round(naive64, 1),
                fps_batch64_by_backend={k: round(v, 1) for k, v in fps64_by.items()},
-               max_abs_diff=max_diff, pose_quality=quality, threads=a.threads, model=a.model)
+               max_abs_diff=max_diff, pose_quality=quality, noise_correlation=a.noise_correlation, threads=a.threads,
+               model=a.model)
     print(json.dumps(res))
     return res
 

@@ -38,6 +38,7 @@ class TrainConfig:
     latent: int = 0                 # size of CCNet's per-frame latent z (CCNetConfig.latent; 0: the paper's)
     kl_weight: float = 1.0          # weight of the latent's KL term (1: the ELBO)
     learned_prior: bool = False     # z's prior from the past (CCNetConfig.learned_prior), not N(0, I)
+    activity_weight: float = 0.0    # weight of the rolled-out stretch's pace term (losses.rollout_activity; needs rollout_from)
     type_balance: float = 0.0       # windows drawn with weight 1 / (windows of their type)^this (WindowData.draw_train)
     optimizer: str = "rmsprop"      # "rmsprop" (the paper's) or "adam" (OPTIMIZERS)
     seed: int = 0
