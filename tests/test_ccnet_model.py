@@ -399,19 +399,3 @@ def test_unguided_rollout_steps_with_the_learned_priors_mean():
         mean = m(rolled, skel, traj, types)["mean"]
     assert torch.allclose(rolled[:, 5:, :cfg.n_continuous], mean[:, 4:-1], atol=1e-4)
 
-
-def test_rollout_activity_is_zero_at_the_datas_pace_and_large_when_frozen():
-    from mocapviz.training.losses import rollout_activity
-    t = torch.arange(10, dtype=torch.float32)
-    data = torch.stack([0.1 * t, -0.3 * t], -1)[None]                 # (1, 10, 2): steps 0.1 and 0.3
-    target = data[:, 1:]                                               # x_{t+1} for inputs 0..8
-    x = data[:, :-1].clone()
-    x[:, 5:] = x[:, 4:5] + torch.tensor([0.1, 0.3]) * torch.arange(1, 5)[:, None]  # its own run from 5
-    same_pace = x + torch.tensor([0.1, 0.3])                           # each step the data's size (any sign)
-    frozen = x.clone()
-    assert float(rollout_activity(same_pace, x, target, 5)) < 1e-10
-    want = math.log(1e-3 / 0.101) ** 2 + math.log(1e-3 / 0.301) ** 2
-    assert math.isclose(float(rollout_activity(frozen, x, target, 5)), want, rel_tol=1e-5)
-    keep = torch.tensor([True, False])
-    assert math.isclose(float(rollout_activity(frozen, x, target, 5, keep)), math.log(1e-3 / 0.101) ** 2,
-                        rel_tol=1e-5)

@@ -113,15 +113,14 @@ def test_rollout_run_trains_and_resumes_exactly(ds, tmp_path):
 
 
 def test_latent_rollout_run_trains_logs_the_kl_and_resumes_exactly(ds, tmp_path):
-    """A latent CCNet (learned prior) with rollouts, their pace term and type-balanced windows:
-    the same losses whether or not it was interrupted, KL and pace in the log, moving prior weights."""
-    cfg = replace(TINY, latent=4, learned_prior=True, rollout_from=10, type_balance=1.0, dropout=0.0,
-                  activity_weight=1.0)
+    """A latent CCNet (learned prior) with rollouts and type-balanced windows: the same losses
+    whether or not it was interrupted, a positive KL in the log, and moving prior weights."""
+    cfg = replace(TINY, latent=4, learned_prior=True, rollout_from=10, type_balance=1.0, dropout=0.0)
     full = train(ds, cfg, tmp_path / "full", progress=False)
     train(ds, cfg, tmp_path / "part", progress=False, stop_after=4)
     train(ds, cfg, tmp_path / "part", progress=False)
     a = rows(tmp_path / "full")
-    assert a == rows(tmp_path / "part") and all(float(r["kl"]) > 0 and float(r["activity"]) > 0 for r in a)
+    assert a == rows(tmp_path / "part") and all(float(r["kl"]) > 0 for r in a)
     torch.manual_seed(cfg.seed)
     init = CCNet(cfg.model_config(ds.layout))
     trained, _, _ = load_checkpoint(full)

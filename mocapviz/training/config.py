@@ -38,7 +38,6 @@ class TrainConfig:
     latent: int = 0                 # size of CCNet's per-frame latent z (CCNetConfig.latent; 0: the paper's)
     kl_weight: float = 1.0          # weight of the latent's KL term (1: the ELBO)
     learned_prior: bool = False     # z's prior from the past (CCNetConfig.learned_prior), not N(0, I)
-    activity_weight: float = 0.0    # weight of the rolled-out stretch's pace term (losses.rollout_activity; needs rollout_from)
     type_balance: float = 0.0       # windows drawn with weight 1 / (windows of their type)^this (WindowData.draw_train)
     optimizer: str = "rmsprop"      # "rmsprop" (the paper's) or "adam" (OPTIMIZERS)
     seed: int = 0
@@ -105,6 +104,10 @@ TRAIN_CONFIGS = {
     "rollout": TrainConfig(size="default", steps=2500, batch_size=32, window=120, lr=1e-3, lr_final=1e-5,
                            optimizer="adam", dropout=0.0, noise_std=0.01, nll_beta=1.0,
                            residual_blocks=("rot", "angvel", "pos", "vel"), rollout_from=48),
+    # issue 9's latent run: "wide" plus a per-frame latent z (32, learned prior: CCNetConfig.latent)
+    # and windows drawn with weight 1 / sqrt(windows of their motion type) (type_balance 0.5)
+    "wide_latent": TrainConfig(size="wide", steps=2800, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
+                               feedback_passes=4, latent=32, learned_prior=True, type_balance=0.5),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }

@@ -94,28 +94,6 @@ def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_c
     return dict(loss=total, **parts)
 
 
-def rollout_activity(mean: torch.Tensor, x: torch.Tensor, target_x: torch.Tensor, start: int,
-                     channels: torch.Tensor | None = None, eps: float = 1e-3) -> torch.Tensor:
-    """How far a rolled-out stretch moves against how far the data moves, phase-free.
-
-    From frame ``start`` on the inputs ``x`` (B, T, n_x) are the model's own means
-    (:func:`mocapviz.training.trainer.rolled_out`), so ``mean_t - x_t`` is the step its
-    free-running motion takes at t. Per window and channel, a = mean over t >= start of
-    |mean_t - x_t| and d = the same of the data's |x_{t+1} - x_t| (from ``target_x``); the loss
-    is (ln((a + eps) / (d + eps)))^2, summed over the channels (``channels``: the counted ones)
-    and averaged over windows. It does not ask the rollout to be in the data's phase (a
-    frame-by-frame target that a free run cannot meet pulls it to the average pose, which is
-    what freezes), only to keep the data's pace: 0 when it does, ln(eps / d)^2 when it freezes.
-    """
-    n = mean.shape[-1]
-    step = (mean[:, start:] - x[:, start:, :n]).abs().mean(1)
-    data = (target_x[:, start:, :n] - target_x[:, start - 1:-1, :n]).abs().mean(1)
-    ratio = torch.log((step + eps) / (data + eps)) ** 2
-    if channels is not None:
-        ratio = ratio[:, channels]
-    return ratio.sum(-1).mean()
-
-
 def gaussian_kl(mean, logvar, prior_mean, prior_logvar) -> torch.Tensor:
     """Element-wise KL(N(mean, exp(logvar)) || N(prior_mean, exp(prior_logvar))) in nats."""
     return 0.5 * (prior_logvar - logvar + (torch.exp(logvar) + (mean - prior_mean) ** 2) / torch.exp(prior_logvar) - 1.0)

@@ -15,7 +15,7 @@ from mocapviz.atomic import atomic_path
 from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint
 
 CHECKPOINT, BEST, LOG = "checkpoint.safetensors", "best.safetensors", "losses.csv"
-CSV_FIELDS = ["step", "epoch", "lr", "loss", "nll", "smooth", "contact", "traj_nll", "kl", "activity", "val_nll", "val_loss",
+CSV_FIELDS = ["step", "epoch", "lr", "loss", "nll", "smooth", "contact", "traj_nll", "kl", "val_nll", "val_loss",
               "test_nll", "test_loss", "seconds"]
 LEGACY_COLUMNS = {"direction": "traj_nll"}  # logs written before the rename
 

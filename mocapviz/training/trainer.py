@@ -38,7 +38,7 @@ from mocapviz.models.protocol import model_class
 from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint
 from mocapviz.training.config import TrainConfig
 from mocapviz.training.distributed import rank_and_world
-from mocapviz.training.losses import LAMBDAS, LOSSES, rollout_activity
+from mocapviz.training.losses import LAMBDAS, LOSSES
 from mocapviz.training.runs import BEST, CHECKPOINT, LOG, best_row, read_log, write_log
 from mocapviz.training.windows import WindowData
 
@@ -180,8 +180,6 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     torch.manual_seed(cfg.seed)
     model = model_cls(cfg.model_config(data.layout))
     loss_fn = LOSSES[model.name]
-    if cfg.activity_weight and not cfg.rollout_from:
-        raise ValueError("activity_weight needs rollout_from (it measures the rolled-out stretch)")
     if cfg.rollout_from and not hasattr(model, "stepper"):
         raise ValueError(f"rollout_from needs a model with an incremental stepper (CCNet), not {cfg.model!r}")
     opt = cfg.make_optimizer(model.parameters())
@@ -224,9 +222,6 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         if cfg.rollout_from:  # sigma learns from the seed part only (see rollout_sigma)
             out = rollout_sigma(out, cfg.rollout_from)
         parts = loss_fn(out, b, model.cfg, cfg.lambdas, nll_beta=cfg.nll_beta, **_kl(model, cfg))
-        if cfg.activity_weight:  # keep the rolled-out stretch at the data's pace (losses.rollout_activity)
-            parts["activity"] = rollout_activity(out["mean"], b["x"], b["target_x"], cfg.rollout_from, b["varying"])
-            parts["loss"] = parts["loss"] + cfg.activity_weight * parts["activity"]
         opt.zero_grad(set_to_none=True)
         parts["loss"].backward()
         opt.step()
