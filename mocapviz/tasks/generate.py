@@ -83,11 +83,17 @@ class Generator:
         self.parts = self.cfg.output_slices  # where mean, s, contact logits, c^d sit in a raw output
         self.backend = ("numpy" if batch <= 8 else "torch") if backend == "auto" else backend
         self.stepper = model.stepper(batch, self.backend)
+        st, t = self.stepper, torch.from_numpy
+        self.latent = getattr(self.cfg, "latent", 0)  # a CCNet with a latent z (baselines have none)
         if self.backend == "numpy":
-            self._trunk, self._head = self.stepper.trunk_step, self.stepper.head
+            self._plain_step = st.step
+            if self.latent:
+                self._trunk, self._head = st.trunk_step, st.head
         else:
-            self._trunk = lambda x, c: self.stepper.trunk_step(torch.from_numpy(x), torch.from_numpy(c))
-            self._head = lambda skip, z: self.stepper.head(skip, None if z is None else torch.from_numpy(z)).numpy()
+            self._plain_step = lambda x, c: st.step(t(x), t(c)).numpy()
+            if self.latent:
+                self._trunk = lambda x, c: st.trunk_step(t(x), t(c))
+                self._head = lambda skip, z: st.head(skip, t(z)).numpy()
         self.constant = normaliser.constant_channels()  # written as their training value (0 normalised)
         self.keep_outputs = False     # keep every raw step output (tests / benchmark)
         self.raw_outputs: list[np.ndarray] = []
@@ -96,7 +102,7 @@ class Generator:
         """Frame t+1 into ``dest`` (B, n_x): the mean (or a Gaussian sample) and the contact
         labels (logit > 0); returns the predicted c^d (normalised), a view of ``raw``."""
         n, out = self.cfg.n_continuous, self.parts
-        if self.sample and not self.cfg.latent:  # a latent model samples z instead (_latent)
+        if self.sample and not self.latent:  # a latent model samples z instead (_latent)
             sigma = np.maximum(np.exp(-raw[:, out["s"]]), self.cfg.sigma_min)
             dest[:, :n] = raw[:, out["mean"]] + self.temperature * sigma * self._draw(sigma.shape)
         else:
@@ -107,8 +113,10 @@ class Generator:
 
     def _step(self, x: np.ndarray, c: np.ndarray) -> np.ndarray:
         """The raw output (B, n_out) for frame t+1 from frame t and c^d_{t+1} (numpy arrays)."""
+        if not self.latent:
+            return self._plain_step(x, c)
         skip = self._trunk(x, c)
-        return self._head(skip, self._latent(skip) if self.cfg.latent else None)
+        return self._head(skip, self._latent(skip))
 
     def _latent(self, skip) -> np.ndarray:
         """z of a latent model for the next frame, from its prior given the past (N(0, I) unless
