@@ -426,7 +426,10 @@ for name, t in drift.items():
 #   mean = g x_t + output with g = 0.9 or 0.98, freezes every seed), constant input offsets as
 #   noise (no effect on the drift), training on its own predictions (`feedback_passes`), and on
 #   whole free-running stretches of each window with the data as target (`rollout_from`: the
-#   one-step error rose and the drift came sooner, section 5c's measure); the wider network
+#   one-step error rose and the drift came sooner, section 5c's measure), and a per-frame latent
+#   $z$ drawn instead of the frame (`TrainConfig.latent`, a conditional VAE on the causal stack:
+#   sampled frames then vary by $z$ rather than by per-frame noise, but the mean output still
+#   froze on most seeds; `models/README.md` has the runs); the wider network
 #   trained on its own predictions (`ccnet_wide`) is the one shown here. Free-running walks of `ccnet_default`
 #   glide at about 3x a walker's root speed (its own predicted $\hat{\mathbf c}^d$ feeds back);
 #   the root-speed ratio above shows whether `ccnet_wide` does.

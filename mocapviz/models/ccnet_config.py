@@ -39,15 +39,21 @@ class CCNetConfig:
     # latent: size of a per-frame latent z (a conditional VAE on top of the causal stack, as in
     # Ling et al. 2020's motion VAE; 0 = the paper's network). The decoder sees the skip sum plus
     # a projection of z before its ReLU; in training z comes from a posterior that also sees the
-    # true next frame, in generation from N(0, I) (sampling) or 0 (the mean). Issue 9: a
-    # Gaussian output trained on one-step targets averages the possible continuations (the mean
-    # freezes) and its per-frame sigma is far larger than real frame-to-frame change (samples are
-    # noise); z carries which continuation, so the decoder need not average.
+    # true next frame, in generation from the prior (a draw when sampling, its mean for the mean
+    # output). Tried in issue 9: a Gaussian output trained on one-step targets averages the
+    # possible continuations (the mean freezes), and its per-frame sigma is far above a real
+    # frame's change (samples are noise). Drawing z instead of the frame lowered the sampled
+    # jitter (default width, N(0, I) prior, rollouts from frame 40: 2-33x the real clips', and
+    # 0.4-7x with the Generator's noise_correlation 0.95, against ccnet_wide's 25-909x), but the
+    # mean output still froze on 6 of 10 test seeds: the causal stack tracks its input no better
+    # (one_step.drift_table, depth 1: 0.24 against ccnet_wide's 0.17). Off by default; the runs
+    # are in models/README.md.
     latent: int = 0
     posterior_hidden: int = 256
     # learned_prior: z's prior is N(mu(past), sigma(past)^2) from the skip sum (a conditional
     # prior, as in VRNN-style sequence VAEs) instead of N(0, I); the mean output then uses the
-    # prior's mean, the likeliest z for this past, not 0.
+    # prior's mean, the likeliest z for this past, not 0. It did not help either: config
+    # wide_latent froze on 6 of 10 test seeds, both walks among them (issue 9).
     learned_prior: bool = False
 
     def __post_init__(self):

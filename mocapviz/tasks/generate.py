@@ -3,7 +3,8 @@
 Seed frames are fed through the network (teacher forcing), then each new frame is the mean of
 the predicted Gaussian (or a sample from it) with the predicted contact labels, fed back as the
 next input. A CCNet with a latent (``CCNetConfig.latent``) samples its z from the prior per frame
-instead and writes the decoder's mean (the prior's mean z for the mean output). The trajectory control c^d comes from one of:
+instead and writes the decoder's mean (the prior's mean z for the mean output). The trajectory
+control c^d comes from one of:
 
 - ``traj``: an array of raw c^d per frame (e.g. taken from a clip; repeated cyclically);
 - ``path``: a user path of world ground points (X, Z) per frame; c^d is recomputed every frame
