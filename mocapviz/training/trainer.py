@@ -51,7 +51,7 @@ def model_inputs(model, b: dict) -> dict:
 
 
 @torch.no_grad()
-def fed_back(net, b: dict, input_names: dict, passes: int) -> torch.Tensor:
+def fed_back(net, b: dict, inputs: dict, passes: int) -> torch.Tensor:
     """Inputs ``b["x"]`` (B, T, n_x) whose second half is the model's own predicted means, as in
     generation (``TrainConfig.feedback_passes``).
 
@@ -59,12 +59,12 @@ def fed_back(net, b: dict, input_names: dict, passes: int) -> torch.Tensor:
     previous one: after k passes an input of the second half carries the errors of up to k chained
     predictions, so the network trains on its own errors (i.i.d. input noise does not look like
     them). The constant channels (``b["varying"]`` false) and the contact labels stay the data's.
-    ``input_names``: the model's inputs (:func:`model_inputs`), whose ``x`` is replaced.
+    ``inputs``: the model's inputs (:func:`model_inputs`), whose ``x`` is replaced.
     """
     x, varying = b["x"], b["varying"]
     t0, n = x.shape[1] // 2, varying.shape[0]
     for _ in range(passes):
-        mean = net(**dict(input_names, x=x))["mean"]
+        mean = net(**dict(inputs, x=x))["mean"]
         new = x.clone()
         new[:, t0:, :n][..., varying] = mean[:, t0 - 1:-1][..., varying]  # the mean at t-1 predicts frame t
         x = new
@@ -92,7 +92,8 @@ def rolled_out(model, b: dict, start: int, guided: bool = True) -> torch.Tensor:
         skip = stepper.trunk_step(x[:, t], b["traj"][:, t])
         if t + 1 < start:
             continue
-        # a latent model's z: the posterior mean given the true next frame, as in its training
+        # a latent model's z: the posterior mean given the true next frame (as in its training),
+        # or the prior's mean (as in generation)
         z = None
         if cfg.latent:
             z = model.posterior_of(skip, x[:, t], b["target_x"][:, t])[0] if guided else model.prior_of(skip)[0]
@@ -221,7 +222,7 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         out = net(**model_inputs(model, b))
         if cfg.rollout_from:  # sigma learns from the seed part only (see rollout_sigma)
             out = rollout_sigma(out, cfg.rollout_from)
-        parts = loss_fn(out, b, model.cfg, cfg.lambdas, nll_beta=cfg.nll_beta, **_kl(model, cfg))
+        parts = loss_fn(out, b, model.cfg, cfg.lambdas, nll_beta=cfg.nll_beta, kl_weight=cfg.kl_weight)
         opt.zero_grad(set_to_none=True)
         parts["loss"].backward()
         opt.step()
@@ -233,8 +234,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         # evaluate on the schedule only (not at a stop_after step), so interrupted runs log and
         # select exactly what an uninterrupted run does
         if done % cfg.eval_every == 0 or done == cfg.steps:
-            va = evaluate(model, data, data.val, cfg.lambdas, **_kl(model, cfg))
-            ev = evaluate(model, data, data.test, cfg.lambdas, **_kl(model, cfg))
+            va = evaluate(model, data, data.val, cfg.lambdas, kl_weight=cfg.kl_weight)
+            ev = evaluate(model, data, data.test, cfg.lambdas, kl_weight=cfg.kl_weight)
             row.update(val_nll=round(va["nll"], 5), val_loss=round(va["loss"], 5),
                        test_nll=round(ev["nll"], 5), test_loss=round(ev["loss"], 5))
             # select on the logged (rounded) value, so that a resumed run restores the same best
@@ -254,11 +255,6 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     if world > 1:
         dist.barrier()
     return ckpt
-
-
-def _kl(model, cfg: TrainConfig) -> dict:
-    """The KL weight, for the loss of a model with a latent (other models' losses have none)."""
-    return dict(kl_weight=cfg.kl_weight) if getattr(model.cfg, "latent", 0) else {}
 
 
 def _dataset_meta(ds) -> dict:
