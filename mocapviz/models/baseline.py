@@ -32,6 +32,7 @@ class BaselineConfig:
     n_types: int = 21
     sigma_min: float = 1e-4
     residual: bool = False    # the generator asks; no baseline predicts the change
+    latent = 0                # nor has a latent z (the generator and trainer ask, as of CCNet)
 
     # the same output layout as CCNet (one home: CCNetConfig)
     n_continuous = CCNetConfig.n_continuous

@@ -142,15 +142,18 @@ class CCNet(nn.Module):
 
     def posterior_of(self, skip, x, target_x) -> tuple[torch.Tensor, torch.Tensor]:
         """q(z | past, x_t, x_{t+1}): its mean and log-variance (..., latent)."""
-        p = self.posterior(torch.cat([skip, x, target_x], -1))
-        return p[..., :self.cfg.latent], p[..., self.cfg.latent:].clamp(-12.0, 6.0)
+        return self._mean_logvar(self.posterior(torch.cat([skip, x, target_x], -1)))
 
     def prior_of(self, skip) -> tuple[torch.Tensor, torch.Tensor]:
         """p(z | past): its mean and log-variance (..., latent); N(0, I) without a learned prior."""
         if not self.cfg.learned_prior:
             zero = skip.new_zeros(skip.shape[:-1] + (self.cfg.latent,))
             return zero, zero
-        p = self.prior(skip)
+        return self._mean_logvar(self.prior(skip))
+
+    def _mean_logvar(self, p: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """A Gaussian's mean and log-variance from an MLP's (..., 2 latent) output; the
+        log-variance clamped to [-12, 6] so that exp() stays finite early in training."""
         return p[..., :self.cfg.latent], p[..., self.cfg.latent:].clamp(-12.0, 6.0)
 
     def split_output(self, out: torch.Tensor) -> dict[str, torch.Tensor]:

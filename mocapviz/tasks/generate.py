@@ -85,7 +85,7 @@ class Generator:
         self.backend = ("numpy" if batch <= 8 else "torch") if backend == "auto" else backend
         self.stepper = model.stepper(batch, self.backend)
         st, t = self.stepper, torch.from_numpy
-        self.latent = getattr(self.cfg, "latent", 0)  # a CCNet with a latent z (baselines have none)
+        self.latent = self.cfg.latent  # a CCNet with a latent z (CCNetConfig.latent; baselines: 0)
         if self.backend == "numpy":
             self._plain_step = st.step
             if self.latent:

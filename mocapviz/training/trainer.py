@@ -46,7 +46,7 @@ from mocapviz.training.windows import WindowData
 def model_inputs(model, b: dict) -> dict:
     """The batch keys the model's forward takes in training: its ``input_names``, and the true
     next frames for a CCNet with a latent (its posterior sees them)."""
-    names = model.input_names + (("target_x",) if getattr(model.cfg, "latent", 0) else ())
+    names = model.input_names + (("target_x",) if model.cfg.latent else ())
     return {k: b[k] for k in names}
 
 

@@ -33,6 +33,7 @@ class WindowData:
         self.val = ds.window_starts("val", window, stride=1)
         self.n_train_frames = int(sum(r.stop - r.start for r in ds.clips.itertuples() if r.split == "train"))
         self.train_types = ds.clips.type_index.values[self.train[:, 0]]
+        self._draw_p: dict[float, np.ndarray] = {}   # type_balance -> window probabilities
 
     def draw_train(self, rng: np.random.Generator, n: int, type_balance: float = 0.0) -> np.ndarray:
         """``n`` training windows drawn with replacement: uniformly (``type_balance`` 0), or each
@@ -40,9 +41,11 @@ class WindowData:
         equally often (in dataset v4 walks are 62 % of the 60-frame windows, hops 0.2 %)."""
         if not type_balance:
             return self.train[rng.integers(len(self.train), size=n)]
-        counts = np.bincount(self.train_types)
-        p = counts[self.train_types].astype(np.float64) ** -type_balance
-        return self.train[rng.choice(len(self.train), size=n, p=p / p.sum())]
+        if type_balance not in self._draw_p:  # once per run, not every step
+            counts = np.bincount(self.train_types)
+            w = counts[self.train_types].astype(np.float64) ** -type_balance
+            self._draw_p[type_balance] = w / w.sum()
+        return self.train[rng.choice(len(self.train), size=n, p=self._draw_p[type_balance])]
 
     def batch(self, pairs: np.ndarray) -> dict[str, torch.Tensor]:
         """Inputs x_t, controls c_{t+1}, targets x_{t+1} and c^d_{t+2} for windows (clip, start)."""
