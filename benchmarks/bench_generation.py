@@ -26,16 +26,18 @@ import torch
 
 from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+from mocapviz.features.phase import paced_phase
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.generation_quality import (
     QUALITY_KEYS,
     bench_seeds,
     generation_quality,
+    moves_like_real,
     seed_batch,
 )
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from ccnet_reference import full_recompute_outputs, step_outputs  # noqa: E402 - the tests' reference
+from ccnet_reference import controls_used, full_recompute_outputs, step_outputs  # noqa: E402 - the tests' reference
 
 
 def time_incremental(model, norm, ds, batch, frames, n_seed=30, backend="auto"):
@@ -59,7 +61,11 @@ def time_naive(model, norm, ds, batch, frames, n_seed=30):
     xs = torch.zeros(batch, n_seed + frames, model.cfg.n_x)
     xs[:, :n_seed] = torch.from_numpy(norm.norm_x(x))
     tr = torch.zeros(batch, n_seed + frames, model.cfg.n_traj)
-    tr[:, 1:n_seed] = torch.from_numpy(norm.norm_traj(traj[:, 1:]))
+    tr[:, 1:n_seed, :12] = torch.from_numpy(norm.norm_traj(traj[:, 1:]))
+    # a phase model's phase: the seed's, then on at its pace (as the Generator feeds it)
+    phase = torch.from_numpy(paced_phase(x, ds.layout, n_seed + frames)) if model.cfg.phase else None
+    if phase is not None:
+        tr[:, :, -2:] = phase
     skel_n, types_t = torch.from_numpy(norm.norm_skel(skel)), torch.from_numpy(types)
     t0 = time.perf_counter()
     for t in range(n_seed - 1, n_seed + frames - 1):
@@ -67,7 +73,10 @@ def time_naive(model, norm, ds, batch, frames, n_seed=30):
         out = model(xs[:, lo:t + 1], skel_n, tr[:, lo:t + 1], types_t)
         xs[:, t + 1, :n] = out["mean"][:, -1]
         xs[:, t + 1, n:] = (out["contact_logits"][:, -1] > 0).float()
-        tr[:, t + 2 if t + 2 < tr.shape[1] else t + 1] = out["traj_mean"][:, -1]
+        nxt = t + 2 if t + 2 < tr.shape[1] else t + 1
+        tr[:, nxt] = out["traj_mean"][:, -1]
+        if phase is not None:
+            tr[:, nxt, -2:] = phase[:, nxt]
     return batch * frames / (time.perf_counter() - t0)
 
 
@@ -100,8 +109,7 @@ def main(argv=None) -> dict:
     g.keep_outputs = True
     gen = g.run(x, skel, types, 600, seed_traj=traj)
     inc, pred = step_outputs(g.raw_outputs, model.cfg)
-    s = x.shape[1]
-    used = np.concatenate([norm.norm_traj(traj[:, 1:]), pred[:, s - 2:-1]], 1)  # c^d fed at each step
+    used = controls_used(gen, traj, pred, norm, model.cfg)  # c^d fed at each step
     full = full_recompute_outputs(model, norm, gen, skel, types, used)
     max_diff = float(np.abs(inc - full).max())
     print(f"max |incremental - full forward| over {inc.shape[1]} frames: {max_diff:.2e}")
@@ -111,7 +119,8 @@ def main(argv=None) -> dict:
         t = time.perf_counter()
         q = generation_quality(model, norm, ds, a.freeze_seconds, sample=mode == "sample",
                                noise_correlation=a.noise_correlation)
-        quality[mode] = q["summary"]
+        quality[mode] = dict(q["summary"], moves_like_real=sum(map(moves_like_real, q["per_clip"].values())),
+                             seeds=len(q["per_clip"]))
         print(f"{mode} output, {len(q['per_clip'])} x {a.freeze_seconds:g} s, second half ({time.perf_counter() - t:.1f} s), "
               "min / median / max: " + "; ".join(f"{k} {v}" for k, v in q["summary"].items()))
         for clip, c in q["per_clip"].items():

@@ -23,7 +23,7 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("generate", help="continue a BVH (or ASF/AMC) seed with a trained model, write BVH",
                        description="Continue your own motion file with CCNet: the output BVH holds the seed "
                                    "frames, then the generated ones, at 60 fps on the seed's own skeleton.")
-    p.add_argument("--model", default="ccnet_wide",
+    p.add_argument("--model", default="ccnet_phase",
                    help="a .safetensors checkpoint, or a model name looked up in $MOCAPVIZ_ZOO (mocapviz.zoo) and in "
                         "models/zoo/ of the current folder and its parents (default: %(default)s)")
     p.add_argument("--seed", required=True, help="the seed motion: a .bvh file, or an .amc file with --asf")
@@ -51,8 +51,9 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--ik", action=argparse.BooleanOptionalAction, default=True,
                    help="foot-contact leg IK against sliding (default: on)")
     p.add_argument("--skeleton-z", type=float, default=3.0, metavar="Z",
-                   help="c^s is kept within Z standard deviations of the training skeletons' mean: the network "
-                        "only knows their proportions (0: their mean skeleton; inf: yours as is; default: %(default)s)")
+                   help="the seed's root height (by scaling it) and c^s are kept within Z standard deviations of "
+                        "the training skeletons' mean: the network only knows their sizes and proportions (0: their "
+                        "mean skeleton; inf: yours as is; default: %(default)s)")
     p.add_argument("--random-seed", type=int, default=0, help="seed of the sampling noise (default: %(default)s)")
     p.add_argument("--out", required=True, help="the BVH file to write")
     p.set_defaults(run=generate)

@@ -55,10 +55,10 @@ from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.generation_quality import (
     QUALITY_KEYS,
     SEED_FRAMES,
+    TypeBanks,
     generation_quality,
     locomotion_seeds,
     moves_like_real,
-    pose_bank,
     pose_distance,
     real_pose_distance,
     real_reference,
@@ -216,12 +216,14 @@ print(pd.DataFrame({k: {"windows": len(p), **evaluate(model, data, p)} for k, p 
 # real ones (section 5 explains both); the film strips show seconds 15-17.
 
 # %% [markdown]
-# The generation sections use **`ccnet_wide`** (the `wide` config: C = 96, skip 128, trained for
-# half of each window on its own predicted means; `models/README.md`), the committed model whose
-# validation seeds move best; section 5 also prints `ccnet_default`'s numbers beside it.
+# The generation sections use **`ccnet_phase`** (the `phase` config: the default network plus a
+# local motion phase in its control and a phase-functioned decoder, section 5d; `models/README.md`),
+# the committed model whose validation seeds move best; section 5 also prints the mean-output
+# results of `ccnet_default` and `ccnet_wide` (C = 96, trained on its own predictions) beside it.
 
 # %%
-gen_model, gen_norm, _ = zoo.load("ccnet_wide", retrain_if_missing=False)
+gen_model, gen_norm, _ = zoo.load("ccnet_phase", retrain_if_missing=False)
+wide_model, wide_norm, _ = zoo.load("ccnet_wide", retrain_if_missing=False)
 SECONDS = 20
 walk_take = ds.clips.iloc[locomotion_seeds(ds)[0]]["clip"]
 subjects = {
@@ -229,7 +231,7 @@ subjects = {
     "cmu91": "91_02",
     "bandai (held-out take)": walk_take,
 }
-bank = pose_bank(ds)
+banks = TypeBanks(ds)
 generated = {}
 for label, clip in subjects.items():
     row = ds.clip_row(clip)
@@ -250,7 +252,7 @@ for label, clip in subjects.items():
     frozen = metrics.freezing_share(metrics.local_positions(moving.positions(), moving.skeleton), raw.fps)
     print(f"{label:24s} seed {clip}: {n} frames in {dt:.2f} s; root speed {speed:.2f} m/s; foot slide "
           f"{slide(raw):.3f} -> {slide(clean):.3f} m/s with IK; pose frozen in {frozen:.0%} of its 1 s windows; "
-          f"pose distance {pose_distance(moving, bank) / real_pose_distance(ds, bank, r['type']):.1f}x the "
+          f"pose distance {pose_distance(moving, banks[r['type']]) / real_pose_distance(ds, banks[r['type']], r['type']):.1f}x the "
           f"held-out real {r['type']} clips'")
 
 # %% [markdown]
@@ -284,7 +286,7 @@ for label, g in generated.items():
 # * freezing share: 1 s windows whose mean local joint speed is under 1 cm/s (no real clip has one);
 # * activity (pose change per second) and jitter (second differences) as ratios to the real clips
 #   of the same type;
-# * **pose distance**: each pose's distance to the nearest training pose (`metrics.PoseBank`), as a
+# * **pose distance**: each pose's distance to the nearest training pose of its type (`metrics.PoseBank`), as a
 #   ratio to the held-out real clips of the type: a body tumbling through impossible poses at a
 #   walk's pace has walk-like activity and jitter but not walk-like poses;
 # * **root speed**: the root's mean ground speed as a ratio to the real clips' of the type: a walk
@@ -297,11 +299,12 @@ for label, g in generated.items():
 
 # %%
 secs = 20 if QUICK else 60
-quality = {mode: generation_quality(gen_model, gen_norm, ds, secs, sample=mode == "sample", bank=bank)
+quality = {mode: generation_quality(gen_model, gen_norm, ds, secs, sample=mode == "sample", banks=banks)
            for mode in ("mean", "sample")}
-default_quality = generation_quality(model, norm, ds, secs, sample=False, bank=bank)
-print(f"ccnet_default, mean output: {sum(map(moves_like_real, default_quality['per_clip'].values()))} of "
-      f"{len(default_quality['per_clip'])} seeds move like the real clips; ccnet_wide below")
+for name, (m, nm) in {"ccnet_default": (model, norm), "ccnet_wide": (wide_model, wide_norm)}.items():
+    other = generation_quality(m, nm, ds, secs, sample=False, banks=banks)["per_clip"]
+    print(f"{name}, mean output: {sum(map(moves_like_real, other.values()))} of {len(other)} seeds move like the "
+          f"real clips, {sum(c['freezing_share'] > 0 for c in other.values())} freeze at times; ccnet_phase below")
 for mode, q in quality.items():
     print(f"{mode} output, {len(q['per_clip'])} x {secs} s, seconds {secs // 2}-{secs} (min / median / max over the seeds):")
     for key, v in q["summary"].items():
@@ -351,8 +354,8 @@ show_figure(fig)
 
 # %%
 val_rows = np.flatnonzero((ds.clips.split == "val").values)[:12]
-one_step = {"ccnet_default": one_step_table(model, norm, ds, val_rows),
-            "ccnet_wide": one_step_table(gen_model, gen_norm, ds, val_rows)}
+compared = {"ccnet_default": (model, norm), "ccnet_wide": (wide_model, wide_norm), "ccnet_phase": (gen_model, gen_norm)}
+one_step = {name: one_step_table(m, nm, ds, val_rows) for name, (m, nm) in compared.items()}
 print(pd.concat(one_step, axis=1).round(4).to_string())
 for name, t in one_step.items():
     r = t.loc["rot"]
@@ -372,7 +375,7 @@ train_frames = norm.norm_x(ds.x[np.concatenate([np.arange(r.start, r.stop) for r
 residual = linear_code_residual(train_frames[::5], [32, 48, 96, 128, 192, 256])
 print("beyond a linear code of C numbers (RMS, training std): "
       + ", ".join(f"C = {k}: {v:.3f}" for k, v in residual.items()))
-print(f"committed: ccnet_default C = {model.cfg.channels}, ccnet_wide C = {gen_model.cfg.channels}")
+print("committed: " + ", ".join(f"{name} C = {m.cfg.channels}" for name, (m, _) in compared.items()))
 
 # %% [markdown]
 # So the default width cannot even carry a frame, and the wide one only roughly. Width is not
@@ -397,8 +400,8 @@ from mocapviz.tasks.one_step import drift_table
 
 DRIFT_DEPTHS = (1, 5, 10, 30, 71)
 drift = {}
-for name, (m, nm) in {"ccnet_default": (model, norm), "ccnet_wide": (gen_model, gen_norm)}.items():
-    windows = WindowData(ds, 120, normaliser=nm)
+for name, (m, nm) in compared.items():
+    windows = WindowData(ds, 120, normaliser=nm, phase=m.cfg.phase)
     pick = np.random.default_rng(0).choice(len(windows.val), size=min(64, len(windows.val)), replace=False)
     drift[name] = drift_table(m, windows, windows.val[pick], start=48, depths=DRIFT_DEPTHS)
 print(pd.concat(drift, axis=1).round(3).to_string())
@@ -406,6 +409,59 @@ for name, t in drift.items():
     ratio = t["free_running"] / t["stand_still"]
     print(f"{name}: free-running error / standing still at depth 1, 10, 71: "
           + ", ".join(f"{ratio[d]:.1f}x" for d in (1, 10, 71)))
+
+# %% [markdown]
+# ## 5d · The phase: why `ccnet_phase` keeps moving
+#
+# A network that regresses the mean of the next frame averages the continuations it cannot tell
+# apart. Once its own blurred output is its past, it cannot tell where in the gait cycle it is,
+# the average over the cycle is a still pose, and it freezes. `ccnet_phase` is told where it is:
+# `mocapviz.features.phase` takes the first principal component of the clip's root-relative joint
+# positions (signed so that it moves the left foot forward), and its phase (the Hilbert phase
+# after a 0.4-4 Hz band-pass; for a seed shorter than 4 s, one fitted sinusoid) joins the control
+# $\mathbf c^d$ as $(\sin p, \cos p)$. The decoder's weights are a Fourier series in $p$ (two
+# harmonics, `CCNetConfig.phase_harmonics`, after PFNN's phase-functioned weights), so even a
+# causal stack that has stalled decodes a cycle of poses. In generation the phase starts as the
+# seed's and turns on at the seed's own pace (`Generator(phase_source="seed_pace")`); the
+# alternative is to feed back the phase the network predicts (`"network"`).
+#
+# A real walk's signal and phase (left), and the phase the generator feeds over the first seconds
+# of the Bandai walk seed of section 4 (right):
+
+# %%
+from mocapviz.features.phase import LEFT_FOOT, RIGHT_FOOT, local_phase, phase_signal
+
+walk_row = ds.clip_row(walk_take)
+walk_x = ds.clip_arrays(walk_row)["x"]
+t_walk = np.arange(len(walk_x)) / 60
+fig, axes = plt.subplots(1, 2, figsize=(12, 3))
+axes[0].plot(t_walk, phase_signal(walk_x, ds.layout), label="main component of the pose (m)")
+axes[0].plot(t_walk, local_phase(walk_x, ds.layout) / np.pi, lw=0.8, label="phase / pi")
+foot = walk_x[:, ds.layout.x_blocks["pos"]].reshape(len(walk_x), -1, 3)
+axes[0].plot(t_walk, foot[:, LEFT_FOOT, 2] - foot[:, RIGHT_FOOT, 2], ls=":", label="left foot ahead of right (m)")
+axes[0].set_xlabel(f"time (s), {walk_take}")
+axes[0].legend(fontsize=7)
+fed = generated["bandai (held-out take)"]["out"].phase[0]
+axes[1].plot(np.arange(len(fed))[:300] / 60, np.arctan2(fed[:300, 0], fed[:300, 1]) / np.pi)
+axes[1].axvline(SEED_FRAMES / 60, color="grey", lw=0.5)
+axes[1].set_xlabel("time (s; seed before the grey line)")
+axes[1].set_ylabel("phase fed / pi")
+fig.tight_layout()
+show_figure(fig)
+
+# %% [markdown]
+# Which part matters, on the same ten test seeds (mean output, seconds to the end of the
+# generation as in section 5): the phase turning at the seed's pace against the network's own
+# predicted phase (which can stall with the pose).
+
+# %%
+by_source = {src: generation_quality(gen_model, gen_norm, ds, secs, sample=False, banks=banks, phase_source=src)["per_clip"]
+             for src in ("seed_pace", "network")}
+print(pd.concat({src: pd.DataFrame(q).T[["type", "freezing_share", "activity_ratio", "jitter_ratio",
+                                        "root_speed_ratio"]] for src, q in by_source.items()}, axis=1).round(2))
+for src, q in by_source.items():
+    print(f"phase_source={src}: {sum(map(moves_like_real, q.values()))} of {len(q)} move like the real clips; "
+          f"{sum(c['freezing_share'] > 0 for c in q.values())} freeze at times")
 
 # %% [markdown]
 # ## 6 · How this compares with the paper
@@ -417,22 +473,26 @@ for name, t in drift.items():
 # * **Training.** Minutes on one CPU core (see `models/README.md` for the committed run), against
 #   the paper's 2000 epochs on a GPU.
 # * **Generation.** The paper generates "more than 20,000 frames" of motion that does not freeze.
-#   Section 5 prints, per seed, which of ours keep moving with plausible poses and which freeze;
-#   sampling from the predicted Gaussian stays noise because our $\sigma$ is far above a real
-#   frame's change, and the one-step mean far worse than copying the current frame (section 5b).
-#   Issue 9 records what we tried: a residual
+#   Without a phase, ours froze on most seeds with the mean output (section 5 prints
+#   `ccnet_default`'s and `ccnet_wide`'s counts); section 5d prints `ccnet_phase`'s with the phase
+#   fed either way. What the numbers do not show, the film strips do: the held-out HDM05 subject's
+#   body keeps moving, but in poses no jogger holds (in section 4's strip one leg stays stretched
+#   out behind it), which its pose distance in section 5 does not flag, and it jogs and hops
+#   nearly in place (root speed). `ccnet_phase` samples $z$ from its prior and writes the
+#   decoder's mean, which is far less noisy than sampling the frame from the predicted Gaussian
+#   (our $\sigma$ is far above a real frame's change, section 5b), but still jitters more than
+#   real motion on most seeds (section 5).
+#   Issue 9 records what else we tried: a residual
 #   mean (on every channel it drifts without bound; on the rotations and positions only it never
 #   freezes but tumbles through impossible poses, 6-26x the real pose distance; a leak,
 #   mean = g x_t + output with g = 0.9 or 0.98, freezes every seed), constant input offsets as
 #   noise (no effect on the drift), training on its own predictions (`feedback_passes`), and on
 #   whole free-running stretches of each window with the data as target (`rollout_from`: the
-#   one-step error rose and the drift came sooner, section 5c's measure), and a per-frame latent
+#   one-step error rose and the drift came sooner, section 5c's measure), a per-frame latent
 #   $z$ drawn instead of the frame (`TrainConfig.latent`, a conditional VAE on the causal stack:
 #   sampled frames then vary by $z$ rather than by per-frame noise, but the mean output still
-#   froze on most seeds; `models/README.md` has the runs); the wider network
-#   trained on its own predictions (`ccnet_wide`) is the one shown here. Free-running walks of `ccnet_default`
-#   glide at about 3x a walker's root speed (its own predicted $\hat{\mathbf c}^d$ feeds back);
-#   the root-speed ratio above shows whether `ccnet_wide` does.
+#   froze on most seeds), and the phase as an input only (the network then barely used it:
+#   `models/README.md` has the runs).
 # * **Speed.** The incremental generator (each block keeps its past inputs) makes a frame cost one
 #   small matmul chain per block: thousands of frames per second on a laptop CPU, against the
 #   ~65 fps the paper reports for its LibTorch demo.

@@ -16,6 +16,17 @@ def step_outputs(gen_raw: list[np.ndarray], cfg) -> tuple[np.ndarray, np.ndarray
     return np.concatenate([raw[..., out["mean"]], raw[..., out["contact_logits"]], traj], -1), traj
 
 
+def controls_used(gen, seed_traj: np.ndarray, pred: np.ndarray, norm, cfg) -> np.ndarray:
+    """(B, T-1, n_traj) the c^d a free-running generation fed at each step: the seed's own
+    (normalised) for the seed, then the c^d each step predicted; a phase model's last two
+    channels are the phase the generator fed (``gen.phase``)."""
+    s = gen.n_seed
+    if not cfg.phase:
+        return np.concatenate([norm.norm_traj(seed_traj[:, 1:]), pred[:, s - 2:-1]], 1)
+    plain = np.concatenate([norm.norm_traj(seed_traj[:, 1:]), pred[:, s - 2:-1, :-2]], 1)
+    return np.concatenate([plain, gen.phase[:, 1:]], -1)
+
+
 @torch.inference_mode()
 def full_recompute_outputs(model, norm, gen, skel: np.ndarray, types: np.ndarray, traj_n: np.ndarray) -> np.ndarray:
     """(mean, contact logits, c^d mean) of one full forward pass over a generated sequence

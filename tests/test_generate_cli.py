@@ -305,3 +305,13 @@ def test_known_rests_are_current_and_only_match_their_skeleton(data_dir, tmp_pat
     assert all(np.allclose(m @ m.T, np.eye(3), atol=1e-6) for m in a.values())   # rotations
     cmu = load_seed(data_dir / CMU_WALK[0])
     assert known_alignment(cmu.skeleton, map_to_ccnet25(cmu.skeleton.names)) is None
+
+
+def test_seen_scale_brings_only_outlying_heights_into_the_training_range():
+    from types import SimpleNamespace
+    from mocapviz.tasks.generate_bvh import seen_scale
+    norm = SimpleNamespace(skel_mean=np.array([0.9]), skel_std=np.array([0.05]))
+    assert seen_scale(0.92, norm, 3.0) == 1.0                    # within: as it is
+    assert seen_scale(0.5, norm, 3.0) == pytest.approx(0.75 / 0.5)  # a child's body up to mean - 3 std
+    assert seen_scale(1.2, norm, 2.0) == pytest.approx(1.0 / 1.2)
+    assert seen_scale(0.92, norm, 0.0) == pytest.approx(0.9 / 0.92)  # z = 0: the mean, as before

@@ -26,7 +26,7 @@ class CopyLast(torch.nn.Module):
 
     def __init__(self, n_continuous: int, n_types: int):
         super().__init__()
-        self.n, self.cfg = n_continuous, type("Cfg", (), {"n_types": n_types})
+        self.n, self.cfg = n_continuous, type("Cfg", (), {"n_types": n_types, "phase": False})
 
     def forward(self, x, skel, traj, types):
         mean = x[..., :self.n]

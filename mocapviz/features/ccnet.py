@@ -65,6 +65,11 @@ class FeatureLayout:
     def n_x(self) -> int:
         return 12 * self.n_joints + 6
 
+    @classmethod
+    def of_model(cls, cfg) -> "FeatureLayout":
+        """The layout of a model config's frame vector (``cfg.n_x``, ``cfg.n_types``)."""
+        return cls((cfg.n_x - 6) // 12, cfg.n_types)
+
     @property
     def n_continuous(self) -> int:
         """Continuous part of x (everything but the contact labels)."""

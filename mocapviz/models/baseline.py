@@ -33,6 +33,7 @@ class BaselineConfig:
     sigma_min: float = 1e-4
     residual: bool = False    # the generator asks; no baseline predicts the change
     latent = 0                # nor has a latent z (the generator and trainer ask, as of CCNet)
+    phase = False             # nor a phase in c^d (CCNetConfig.phase)
 
     # the same output layout as CCNet (one home: CCNetConfig)
     n_continuous = CCNetConfig.n_continuous
@@ -71,6 +72,8 @@ class BaselineModel(nn.Module):
     def config_for(cls, train_cfg, layout):
         if train_cfg.size not in cls.SIZES:
             raise KeyError(f"unknown {cls.name} size {train_cfg.size!r}; choose from {sorted(cls.SIZES)}")
+        if train_cfg.phase:
+            raise ValueError(f"{cls.name} takes no phase input (TrainConfig.phase is CCNet's)")
         base = cls.config_class(n_x=layout.n_x, n_skel=layout.n_skel, n_traj=layout.n_traj, n_types=layout.n_types)
         return replace(base, **cls.SIZES[train_cfg.size])
 

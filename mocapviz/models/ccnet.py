@@ -18,6 +18,7 @@ its presets in :mod:`mocapviz.models.ccnet_config`.
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -53,6 +54,23 @@ class SRB(nn.Module):
         return h + F.linear(g, self.res.weight[:, :, 0]), F.linear(g, self.skip.weight[:, :, 0], self.skip.bias)
 
 
+def phase_basis(h, phase, harmonics: int):
+    """(..., 2K (S + 1)): the decoder input h (..., S) with a 1 appended, times cos(k p) and
+    sin(k p) for k = 1..K, p the phase given as (sin p, cos p) (..., 2) on the unit circle.
+    Torch or numpy. The harmonics come from the angle-sum formulas, not from an arctan2 and K
+    cos/sin calls: this runs once per generated frame."""
+    lib = torch if torch.is_tensor(h) else np
+    s1, c1 = phase[..., :1], phase[..., 1:]
+    cos_k, sin_k = [c1], [s1]
+    for _ in range(1, harmonics):
+        c, s = cos_k[-1], sin_k[-1]
+        cos_k.append(c * c1 - s * s1)
+        sin_k.append(s * c1 + c * s1)
+    waves = lib.concatenate(cos_k + sin_k, -1)                       # (..., 2K)
+    hb = lib.concatenate([h, lib.ones_like(h[..., :1])], -1)         # (..., S + 1)
+    return (waves[..., :, None] * hb[..., None, :]).reshape(*h.shape[:-1], -1)
+
+
 @register_model("ccnet")
 class CCNet(nn.Module):
     """The network of paper §3.2, registered as "ccnet" (see :mod:`mocapviz.models.protocol`);
@@ -74,6 +92,9 @@ class CCNet(nn.Module):
                 nn.Linear(cfg.skip_channels + 2 * cfg.n_x, cfg.posterior_hidden), nn.ELU(),
                 nn.Linear(cfg.posterior_hidden, cfg.posterior_hidden), nn.ELU(),
                 nn.Linear(cfg.posterior_hidden, 2 * cfg.latent))
+        if cfg.phase_harmonics:  # W_k^c, W_k^s on the skip units and the bias terms of every harmonic
+            self.phase_decoder = nn.Linear(2 * cfg.phase_harmonics * (cfg.skip_channels + 1), cfg.n_out, bias=False)
+            nn.init.zeros_(self.phase_decoder.weight)  # starts as the plain decoder
         if cfg.latent and cfg.learned_prior:
             self.prior = nn.Sequential(nn.Linear(cfg.skip_channels, cfg.posterior_hidden), nn.ELU(),
                                        nn.Linear(cfg.posterior_hidden, 2 * cfg.latent))
@@ -81,10 +102,12 @@ class CCNet(nn.Module):
     @classmethod
     def config_for(cls, train_cfg, layout) -> CCNetConfig:
         """The config of ``train_cfg`` (size preset, dilations, dropout, residual) for a feature layout."""
-        return make_config(train_cfg.size, n_x=layout.n_x, n_skel=layout.n_skel, n_traj=layout.n_traj,
+        return make_config(train_cfg.size, n_x=layout.n_x, n_skel=layout.n_skel,
+                           n_traj=layout.n_traj + 2 * train_cfg.phase, phase=train_cfg.phase,
                            n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout,
                            residual=train_cfg.residual, residual_gain=train_cfg.residual_gain,
                            latent=train_cfg.latent, learned_prior=train_cfg.learned_prior,
+                           phase_harmonics=train_cfg.phase_harmonics,
                            residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
                                                  for b in train_cfg.residual_blocks))
 
@@ -119,7 +142,7 @@ class CCNet(nn.Module):
                 extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
             elif z is None:
                 z = self.prior_of(skip)[0]
-        out = self.split_output(self.head(skip, z))
+        out = self.split_output(self.head(skip, z, traj))
         if self.cfg.residual_slices:
             out["mean"] = self.cfg.add_residual(out["mean"].clone(), x)
         return dict(out, **extra)
@@ -134,11 +157,16 @@ class CCNet(nn.Module):
             skip = skip + s
         return skip
 
-    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None) -> torch.Tensor:
-        """The decoder: raw output (..., n_out) from the skip sum (and z, with a latent)."""
+    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None, traj: torch.Tensor | None = None) -> torch.Tensor:
+        """The decoder: raw output (..., n_out) from the skip sum (and z, with a latent; and the
+        phase in the control c^d ``traj``, with ``phase_harmonics``)."""
         if self.cfg.latent:
             skip = skip + self.z_in(z)
-        return F.linear(torch.relu(skip), self.decoder.weight[:, :, 0], self.decoder.bias)
+        h = torch.relu(skip)
+        out = F.linear(h, self.decoder.weight[:, :, 0], self.decoder.bias)
+        if self.cfg.phase_harmonics:
+            out = out + self.phase_decoder(phase_basis(h, traj[..., -2:], self.cfg.phase_harmonics))
+        return out
 
     def posterior_of(self, skip, x, target_x) -> tuple[torch.Tensor, torch.Tensor]:
         """q(z | past, x_t, x_{t+1}): its mean and log-variance (..., latent)."""

@@ -55,6 +55,18 @@ class CCNetConfig:
     # prior's mean, the likeliest z for this past, not 0. It did not help either: config
     # wide_latent froze on 6 of 10 test seeds, both walks among them (issue 9).
     learned_prior: bool = False
+    # phase: the last two channels of c^d are a local motion phase (sin, cos)
+    # (:mod:`mocapviz.features.phase`), given as an input and predicted with c^d; generation turns
+    # it on at the seed's pace, or feeds the predicted one back (Generator's phase_source; issue 9).
+    # False: the paper's c^d.
+    phase: bool = False
+    # phase_harmonics K (needs phase): the decoder's weights and bias are a Fourier series in the
+    # phase, W(p) = W_0 + sum_k W_k^c cos(k p) + W_k^s sin(k p), k <= K (a phase-functioned
+    # decoder, after Holden et al. 2017's PFNN, whose weights are a spline in the phase). Why:
+    # given the phase only as an input, the trained network barely used it (issue 9: with the
+    # phase kept turning, the held-out subject's seeds still moved at 1-3 % of the real activity);
+    # with phase-dependent weights even a stalled causal stack decodes a cycle of poses.
+    phase_harmonics: int = 0
 
     def __post_init__(self):
         if self.kernel_size != 2:
@@ -65,6 +77,10 @@ class CCNetConfig:
         object.__setattr__(self, "residual_ranges", tuple((int(a), int(b)) for a, b in self.residual_ranges))
         if not 0.0 < self.residual_gain <= 1.0:
             raise ValueError(f"residual_gain must lie in (0, 1], got {self.residual_gain}")
+        if self.phase and self.n_traj < 2:
+            raise ValueError("a phase needs two c^d channels")
+        if self.phase_harmonics and not self.phase:
+            raise ValueError("phase_harmonics needs phase")
         if self.latent < 0:
             raise ValueError(f"latent must be >= 0, got {self.latent}")
         if any(not 0 <= a < b <= self.n_continuous for a, b in self.residual_ranges):

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
+from mocapviz.models.ccnet import phase_basis
+
 if TYPE_CHECKING:
     from mocapviz.models.ccnet import CCNet
 
@@ -35,6 +37,7 @@ class _StepWeights:
     dec_w: torch.Tensor = None
     dec_b: torch.Tensor = None
     z_w: torch.Tensor = None      # (latent, S): z's projection onto the skip sum (cfg.latent only)
+    phase_w: torch.Tensor = None  # (2K (S + 1), n_out): the phase-functioned decoder's (cfg.phase_harmonics only)
 
 
 class CCNetStepper:
@@ -79,6 +82,8 @@ class CCNetStepper:
             w.dec_b = model.decoder.bias.to(dtype).clone()
             if cfg.latent:
                 w.z_w = model.z_in.weight.T.to(dtype).contiguous()
+            if cfg.phase_harmonics:
+                w.phase_w = model.phase_decoder.weight.T.to(dtype).contiguous()
         self.w = w
         self.dtype = dtype
         self._static = None
@@ -107,13 +112,18 @@ class CCNetStepper:
         """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}, z (B, latent) the latent of
         a model with one (None: z = 0, not a learned prior's mean: ``CCNet.prior_of``); returns
         the raw decoder output (B, n_out) for frame t+1 (split it with ``CCNet.split_output``)."""
-        return self.head(self.trunk_step(x, traj), z)
+        return self.head(self.trunk_step(x, traj), z, traj)
 
-    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None) -> torch.Tensor:
-        """``CCNet.head``: the raw output from the skip sum of :meth:`trunk_step` (and z)."""
+    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None, traj: torch.Tensor | None = None) -> torch.Tensor:
+        """``CCNet.head``: the raw output from the skip sum of :meth:`trunk_step` (and z; and
+        the phase in the control ``traj``, with ``phase_harmonics``)."""
         if z is not None and self.w.z_w is not None:
             skip = torch.addmm(skip, z.to(self.dtype), self.w.z_w)
-        return torch.addmm(self.w.dec_b, skip.relu(), self.w.dec_w)
+        h = skip.relu()
+        out = torch.addmm(self.w.dec_b, h, self.w.dec_w)
+        if self.w.phase_w is not None:
+            out.addmm_(phase_basis(h, traj[:, -2:].to(self.dtype), self.cfg.phase_harmonics), self.w.phase_w)
+        return out
 
     def trunk_step(self, x: torch.Tensor, traj: torch.Tensor) -> torch.Tensor:
         """Advance one frame; returns the skip sum (B, S) before the decoder's ReLU."""
@@ -154,6 +164,7 @@ class NumpyStepper:
         self.res_w = [f(x) for x in w.res_w]
         self.skip_w, self.skip_b, self.dec_w, self.dec_b = f(w.skip_w), f(w.skip_b), f(w.dec_w), f(w.dec_b)
         self.z_w = None if w.z_w is None else f(w.z_w)
+        self.phase_w = None if w.phase_w is None else f(w.phase_w)
         self._static = None
         self.reset()
 
@@ -169,15 +180,17 @@ class NumpyStepper:
         self._static = st @ self.ctrl_static_w + self.ctrl_b
 
     def step(self, x: np.ndarray, traj: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
-        return self.head(self.trunk_step(x, traj), z)
+        return self.head(self.trunk_step(x, traj), z, traj)
 
-    def head(self, skip: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
+    def head(self, skip: np.ndarray, z: np.ndarray | None = None, traj: np.ndarray | None = None) -> np.ndarray:
         """``CCNet.head`` on numpy arrays (``skip`` is overwritten)."""
         if z is not None and self.z_w is not None:
             skip += np.asarray(z, np.float32) @ self.z_w
         np.maximum(skip, 0, out=skip)
         out = skip @ self.dec_w
         out += self.dec_b
+        if self.phase_w is not None:
+            out += phase_basis(skip, np.asarray(traj, np.float32)[:, -2:], self.cfg.phase_harmonics) @ self.phase_w
         return out
 
     def trunk_step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:

@@ -24,17 +24,21 @@ import torch
 
 from mocapviz.features.ccnet import FeatureLayout, Normaliser
 from mocapviz.features.motion_types import one_hot
+from mocapviz.features.phase import phase_input
 
 # The right leg of the 25 CCNet joints (Fig. 4(c-d): its rotations are zeroed)
 RIGHT_LEG = ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")
 
 
 def teacher_forced(model, x_norm: np.ndarray, skel_norm: np.ndarray, traj_norm: np.ndarray,
-                   types: np.ndarray) -> dict[str, np.ndarray]:
+                   types: np.ndarray, x_raw: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """The model's outputs (``mean``, ``sigma``: (T-1, n_continuous), normalised) for frames
     1..T-1 of a clip, each predicted from the true frames before it: x_norm (T, n_x) inputs,
     traj_norm (T, 12) c^d of each frame, skel_norm (n_skel,), types (n_types,) one-hot. Input t
-    carries x_t and c^d_{t+1} (as in training)."""
+    carries x_t and c^d_{t+1} (as in training). A phase model (``CCNetConfig.phase``) also sees
+    the local phase of the raw frames ``x_raw`` (T, n_x)."""
+    if model.cfg.phase:
+        traj_norm = np.concatenate([traj_norm, phase_input(x_raw, FeatureLayout.of_model(model.cfg))], axis=1)
     model.eval()
     f = lambda a: torch.as_tensor(np.asarray(a, np.float32))[None]  # noqa: E731
     with torch.no_grad():
@@ -43,9 +47,9 @@ def teacher_forced(model, x_norm: np.ndarray, skel_norm: np.ndarray, traj_norm: 
 
 
 def teacher_forced_means(model, x_norm: np.ndarray, skel_norm: np.ndarray, traj_norm: np.ndarray,
-                         types: np.ndarray) -> np.ndarray:
+                         types: np.ndarray, x_raw: np.ndarray | None = None) -> np.ndarray:
     """The means of :func:`teacher_forced`."""
-    return teacher_forced(model, x_norm, skel_norm, traj_norm, types)["mean"]
+    return teacher_forced(model, x_norm, skel_norm, traj_norm, types, x_raw)["mean"]
 
 
 def add_noise(x_norm: np.ndarray, std: float, n_continuous: int, rng: np.random.Generator) -> np.ndarray:
@@ -77,7 +81,7 @@ class Repairer:
         model's mean of frames 1..T-1 (T-1, n_continuous), in the reference's units."""
         raw = self.ref.denorm_x(x_ref)
         mean = teacher_forced_means(self.model, self.norm.norm_x(raw), self.norm.norm_skel(skel),
-                                    self.norm.norm_traj(traj), one_hot([type_index], self.n_types)[0])
+                                    self.norm.norm_traj(traj), one_hot([type_index], self.n_types)[0], raw)
         mean[:, self.norm.constant_channels()] = 0.0   # their training value, as the generator writes
         denorm = mean * self.norm.x_std + self.norm.x_mean
         return ((denorm - self.ref.x_mean) / self.ref.x_std).astype(np.float32)

@@ -11,6 +11,11 @@ control c^d comes from one of:
   from the character's integrated root and heading, so the character steers onto the path;
 - neither: the network's own predicted c^d (free-running, the paper's interactive fallback).
 
+A CCNet with a phase (``CCNetConfig.phase``) sees the seed's local phase
+(:func:`mocapviz.features.phase.paced_phase`, from the seed frames alone), then the phase turning
+on at the seed's pace (``phase_source="seed_pace"``) or its own predicted phase put back on the unit
+circle (``"network"``), whatever the source of the rest of c^d.
+
 The output frame vectors turn back into poses with :func:`features_to_motion` (exp maps through
 FK, integrated root path) and, unless switched off, contact-triggered two-bone leg IK.
 """
@@ -23,6 +28,7 @@ import numpy as np
 import torch
 
 from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, Normaliser, features_to_motion
+from mocapviz.features.phase import on_circle, paced_phase
 from mocapviz.heading import from_heading_frame_xz, to_heading_frame_xz
 from mocapviz.ik import remove_foot_sliding
 from mocapviz.models.ccnet import CCNet
@@ -35,6 +41,7 @@ class Generated:
     x: np.ndarray            # (B, T, n_x) raw frame vectors, seed frames first
     n_seed: int
     x_norm: np.ndarray | None = None   # the same, normalised (what the network saw)
+    phase: np.ndarray | None = None    # (B, T, 2) the phase (sin, cos) the network saw (CCNetConfig.phase)
 
     def motion(self, i: int, skeleton: Skeleton, start_root=(0.0, 0.0, 0.0), start_heading: float = 0.0,
                ik: bool = True, include_seed: bool = True, name: str = "generated") -> Motion:
@@ -59,7 +66,8 @@ class Generator:
     """
 
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
-                 seed: int = 0, backend: str = "auto", temperature: float = 1.0, noise_correlation: float = 0.0):
+                 seed: int = 0, backend: str = "auto", temperature: float = 1.0, noise_correlation: float = 0.0,
+                 phase_source: str = "seed_pace"):
         if temperature < 0:
             raise ValueError(f"temperature must be >= 0, got {temperature}")
         if not 0.0 <= noise_correlation < 1.0:
@@ -77,10 +85,17 @@ class Generator:
         # the past, and independent draws make every frame jump by sigma, while a model's errors
         # are slow drifts, not white noise (issue 9: jitter 25-909x the real clips' with 0).
         self.noise_correlation = float(noise_correlation)
+        # a phase model's phase after the seed (CCNetConfig.phase): "seed_pace" turns it on at the
+        # seed's own pace (features.phase.phase_pace), "network" feeds back the network's
+        # prediction. Why "seed_pace": the predicted phase stalled with the pose on the held-out
+        # subject's seeds (issue 9: 0.00 cycles/s after 10 s), and a stalled phase cannot help.
+        if phase_source not in ("seed_pace", "network"):
+            raise ValueError(f"phase_source must be 'seed_pace' or 'network', got {phase_source!r}")
+        self.phase_source = phase_source
         self._noise = None
         self.rng = np.random.default_rng(seed)
         self.cfg = model.cfg
-        self.layout = FeatureLayout((self.cfg.n_x - 6) // 12, self.cfg.n_types)
+        self.layout = FeatureLayout.of_model(self.cfg)
         self.parts = self.cfg.output_slices  # where mean, s, contact logits, c^d sit in a raw output
         self.backend = ("numpy" if batch <= 8 else "torch") if backend == "auto" else backend
         self.stepper = model.stepper(batch, self.backend)
@@ -94,7 +109,7 @@ class Generator:
             self._plain_step = lambda x, c: st.step(t(x), t(c)).numpy()
             if self.latent:
                 self._trunk = lambda x, c: st.trunk_step(t(x), t(c))
-                self._head = lambda skip, z: st.head(skip, t(z)).numpy()
+                self._head = lambda skip, z, c: st.head(skip, t(z), t(c)).numpy()
         self.constant = normaliser.constant_channels()  # written as their training value (0 normalised)
         self.keep_outputs = False     # keep every raw step output (tests / benchmark)
         self.raw_outputs: list[np.ndarray] = []
@@ -117,15 +132,18 @@ class Generator:
         if not self.latent:
             return self._plain_step(x, c)
         skip = self._trunk(x, c)
-        return self._head(skip, self._latent(skip))
+        return self._head(skip, self._latent(skip), c)
 
     def _latent(self, skip) -> np.ndarray:
         """z of a latent model for the next frame, from its prior given the past (N(0, I) unless
         learned): the prior's mean, or a draw from it with the spread scaled by ``temperature``
         when sampling. The frame is then the decoder's mean: the variation comes from z, not
         from per-frame Gaussian noise on the frame."""
-        with torch.no_grad():
-            mean, logvar = (t.numpy() for t in self.model.prior_of(torch.as_tensor(skip)))
+        if self.cfg.learned_prior:
+            with torch.no_grad():
+                mean, logvar = (t.numpy() for t in self.model.prior_of(torch.as_tensor(skip)))
+        else:  # N(0, I) (CCNet.prior_of) without a torch call per frame
+            mean = logvar = np.zeros((len(skip), self.latent), dtype=np.float32)
         if not self.sample:
             return mean
         return mean + self.temperature * np.exp(0.5 * logvar) * self._draw(mean.shape)
@@ -178,6 +196,9 @@ class Generator:
             root_xz = np.asarray(start_root, dtype=np.float64)[:, [0, 2]].copy()
             heading = np.asarray(start_heading, dtype=np.float64).copy()
         pred_traj = np.zeros((b, self.cfg.n_traj), dtype=np.float32)
+        phase = None
+        if self.cfg.phase:
+            phase = paced_phase(seed_x, self.layout, total)
         for t in tqdm(range(total - 1), desc="generate", disable=not progress):
             if per_frame_types and not np.array_equal(types[:, t + 1], cur_type):
                 cur_type = types[:, t + 1]
@@ -195,6 +216,10 @@ class Generator:
                 c_next = norm.norm_traj(path_controls(path, t + 1, root_xz, heading))
             else:
                 c_next = pred_traj
+            if phase is not None:  # the seed's phase, then turned on at its pace or the network's own
+                if t + 1 >= s and self.phase_source == "network":
+                    phase[:, t + 1] = on_circle(pred_traj[:, -2:])
+                c_next = np.concatenate([c_next[:, :self.cfg.n_traj - 2], phase[:, t + 1]], axis=1)
             raw = self._step(x_t, np.ascontiguousarray(c_next))
             # a view of raw: the residual channels get g x_t added in place
             self.cfg.add_residual(raw[:, self.parts["mean"]], x_t)
@@ -204,4 +229,4 @@ class Generator:
                 pred_traj = self._write_next(raw, xs[:, t + 1]).copy()
             else:
                 pred_traj = raw[:, self.parts["traj_mean"]].copy()
-        return Generated(norm.denorm_x(xs), s, xs)
+        return Generated(norm.denorm_x(xs), s, xs, phase)

@@ -160,10 +160,10 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     draws z instead); ``noise_correlation``: the draws' correlation from frame to frame
     (:class:`mocapviz.tasks.generate.Generator`).
 
-    The network sees the seed scaled to the training skeletons' mean root height (the output
-    is scaled back): a committed model trained on ~20 VICON skeletons crouched to half height
-    from a Bandai seed's own c^s (10 standard deviations out at the hips) and stood with it
-    limited to 3.
+    The network sees the seed scaled into the training skeletons' root heights (:func:`seen_scale`;
+    the output is scaled back) and its c^s limited to ``skeleton_z`` (:func:`limit_skeleton`): a
+    model trained on ~20 VICON skeletons crouched to half height from a Bandai seed's own c^s
+    (10 standard deviations out at the hips) and stood with it limited to 3.
     """
     ds = meta["dataset"]
     fps, known = float(ds["fps"]), tuple(ds["motion_types"])
@@ -180,9 +180,10 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     seed60 = seed60[:n_seed]
     rig = seed_rig(seed60, names, ds, normaliser)
     seed_m = rig.to_model(seed60)
-    # the network knows the sizes of its training skeletons only: it sees the seed scaled to
-    # their mean root height, and c^s within skeleton_z standard deviations of their mean
-    size = float(normaliser.skel_mean[0] / seed_m.skeleton.configuration()[0])
+    # the network knows the sizes of its training skeletons only: it sees the seed scaled into
+    # their root heights (within skeleton_z standard deviations of their mean; a seed inside
+    # stays as it is), and c^s within skeleton_z standard deviations of their mean
+    size = seen_scale(seed_m.skeleton.configuration()[0], normaliser, skeleton_z)
     seen = _scaled(seed_m, size)
     feats = motion_features(seen, fps)
     n_gen = int(round(seconds * fps))
@@ -202,6 +203,17 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
                                                ik=ik, include_seed=False), 1 / size))
     out = _concat(seed60, rig.from_model(gen_m))
     return SeedGeneration(out, n_seed, gen_m, rig)
+
+
+def seen_scale(root_height: float, normaliser, z: float) -> float:
+    """The factor that brings a seed's standing root height (m) within ``z`` training standard
+    deviations of the training skeletons' mean (1 for a seed already within). Why not scale
+    every seed to the mean: a model trained on one Bandai skeleton for 90 % of its frames reads
+    c^s to the hundredth; scaled by 1.009 (c^s moved 1.4 standard deviations), a Bandai walk
+    seed walked at 3.2 m/s instead of 1.3 (issue 9, the phase model without a latent) and at
+    1.36 m/s instead of 1.01 (ccnet_phase)."""
+    mean, std = float(normaliser.skel_mean[0]), float(normaliser.skel_std[0])
+    return float(np.clip(root_height, mean - z * std, mean + z * std) / root_height)
 
 
 def limit_skeleton(skel: np.ndarray, normaliser, z: float) -> np.ndarray:

@@ -38,7 +38,7 @@ def one_step_prediction(model, norm, clip: dict) -> tuple[np.ndarray, np.ndarray
     ``CCNetDataset.clip_arrays``), each from the true frames before it
     (:func:`mocapviz.tasks.denoising.teacher_forced`)."""
     out = teacher_forced(model, norm.norm_x(clip["x"]), norm.norm_skel(clip["skel"]), norm.norm_traj(clip["traj"]),
-                         one_hot([clip["type_index"]], model.cfg.n_types)[0])
+                         one_hot([clip["type_index"]], model.cfg.n_types)[0], clip["x"])
     return out["mean"], out["sigma"]
 
 

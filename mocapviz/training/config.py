@@ -39,6 +39,8 @@ class TrainConfig:
     kl_weight: float = 1.0          # weight of the latent's KL term (1: the ELBO)
     learned_prior: bool = False     # z's prior from the past (CCNetConfig.learned_prior), not N(0, I)
     type_balance: float = 0.0       # windows drawn with weight 1 / (windows of their type)^this (WindowData.draw_train)
+    phase: bool = False             # c^d gains a local motion phase (CCNetConfig.phase, features.phase)
+    phase_harmonics: int = 0        # a phase-functioned decoder (CCNetConfig.phase_harmonics)
     optimizer: str = "rmsprop"      # "rmsprop" (the paper's) or "adam" (OPTIMIZERS)
     seed: int = 0
     eval_every: int = 250
@@ -110,6 +112,12 @@ TRAIN_CONFIGS = {
     # walk-back, dash; both walks freeze), 1 of 10 sampled (noise_correlation 0.95). 70 min.
     "wide_latent": TrainConfig(size="wide", steps=2800, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
                                feedback_passes=4, latent=32, learned_prior=True, type_balance=0.5),
+    # issue 9's phase run: "default" plus a local motion phase in c^d (features.phase), a
+    # phase-functioned decoder (2 harmonics) and a per-frame latent z (32, N(0, I) prior): the
+    # first network whose mean output froze on none of the 10 test seeds (models/README.md,
+    # ccnet_phase). 29 min on one shared core.
+    "phase": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
+                         phase=True, phase_harmonics=2, latent=32),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }

@@ -97,7 +97,7 @@ def rolled_out(model, b: dict, start: int, guided: bool = True) -> torch.Tensor:
         z = None
         if cfg.latent:
             z = model.posterior_of(skip, x[:, t], b["target_x"][:, t])[0] if guided else model.prior_of(skip)[0]
-        raw = stepper.head(skip, z)
+        raw = stepper.head(skip, z, b["traj"][:, t])
         mean = cfg.add_residual(raw[:, mean_at].clone(), x[:, t])
         x[:, t + 1, :n][:, varying] = mean[:, varying]
     return x
@@ -172,7 +172,7 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     ckpt, csv_path, best_path = out_dir / CHECKPOINT, out_dir / LOG, out_dir / BEST
     if cfg.window > ds.config.window:
         raise ValueError(f"window {cfg.window} exceeds the dataset's {ds.config.window}")
-    data = WindowData(ds, cfg.window)
+    data = WindowData(ds, cfg.window, phase=cfg.phase)
     if len(data.train) == 0:
         raise ValueError("the dataset has no training windows")
     if len(data.val) == 0:

@@ -6,6 +6,7 @@ import numpy as np
 import torch
 
 from mocapviz.features.motion_types import one_hot
+from mocapviz.features.phase import clip_phases
 
 
 class WindowData:
@@ -16,12 +17,15 @@ class WindowData:
     batches; a batch's keys are the models' ``input_names`` plus the targets.
     """
 
-    def __init__(self, ds, window: int, normaliser=None):
+    def __init__(self, ds, window: int, normaliser=None, phase: bool = False):
         norm = normaliser or ds.normaliser
         self.window = window
         self.layout = ds.layout
         self.x = torch.from_numpy(norm.norm_x(ds.x))
-        self.traj = torch.from_numpy(norm.norm_traj(ds.traj))
+        traj = norm.norm_traj(ds.traj)
+        if phase:  # c^d gains the local phase (sin, cos), unnormalised (CCNetConfig.phase)
+            traj = np.concatenate([traj, clip_phases(ds)], axis=1)
+        self.traj = torch.from_numpy(traj)
         self.skel = torch.from_numpy(norm.norm_skel(ds.skel))
         self.varying = torch.from_numpy(~norm.constant_channels())  # the channels counted in L_G and L_s
         self.types = torch.from_numpy(one_hot(ds.clips.type_index.values, self.layout.n_types))
