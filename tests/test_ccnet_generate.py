@@ -194,3 +194,18 @@ def test_correlated_draws_keep_unit_variance_with_the_asked_lag_one_correlation(
         assert abs(e.std() - 1.0) < 0.02 and abs(lag1 - rho) < 0.01
     with pytest.raises(ValueError, match="noise_correlation"):
         Generator(model, norm, noise_correlation=1.0)
+
+
+def test_nan_seed_controls_are_the_networks_own(ds, committed):
+    """seed_traj rows that are NaN take the c^d the generator would use without a seed c^d (the
+    network's prediction here): all-NaN equals no seed c^d; with a NaN tail the generated
+    frames differ from both (the given rows are used, the NaN ones are not)."""
+    model, norm, _ = committed
+    _, x, traj, skel, t = seed_inputs(ds, "35_01")
+    types = one_hot([t], model.cfg.n_types)
+    run = lambda st: Generator(model, norm).run(x, skel, types, 30, seed_traj=st).x  # noqa: E731
+    assert np.array_equal(run(np.full_like(traj, np.nan)), run(None))
+    tail = traj.copy()
+    tail[:, 20:] = np.nan
+    own, given, mixed = run(np.full_like(traj, np.nan)), run(traj), run(tail)
+    assert not np.array_equal(mixed[:, 40:], given[:, 40:]) and not np.array_equal(mixed[:, 40:], own[:, 40:])

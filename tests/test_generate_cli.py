@@ -315,3 +315,27 @@ def test_seen_scale_brings_only_outlying_heights_into_the_training_range():
     assert seen_scale(0.5, norm, 3.0) == pytest.approx(0.75 / 0.5)  # a child's body up to mean - 3 std
     assert seen_scale(1.2, norm, 2.0) == pytest.approx(1.0 / 1.2)
     assert seen_scale(0.92, norm, 0.0) == pytest.approx(0.9 / 0.92)  # z = 0: the mean, as before
+
+
+def test_seed_controls_leave_the_look_ahead_past_the_seed_to_the_generator():
+    from mocapviz.features.ccnet import TRAJ_STEPS
+    from mocapviz.tasks.generate_bvh import seed_controls
+    traj = np.arange(100 * 12, dtype=np.float32).reshape(100, 12)
+    out = seed_controls(traj)
+    assert np.array_equal(out[:100 - TRAJ_STEPS[-1]], traj[:100 - TRAJ_STEPS[-1]])
+    assert np.isnan(out[100 - TRAJ_STEPS[-1]:]).all() and not np.isnan(traj).any()
+    assert np.isnan(seed_controls(traj[:30])).all()   # a seed shorter than the look-ahead: all the network's
+
+
+def test_a_brisk_walk_seed_keeps_a_walkers_pace(data_dir):
+    """The generate default model from a Bandai walk (1.44 m/s over its first 2 s): 10 s keep
+    the seed's pace. With the seed's extrapolated c^d in its last second (before seed_controls)
+    it broke into a run at 3.2 m/s."""
+    from mocapviz import metrics
+    model, norm, meta = load_checkpoint(repo_zoo.committed_path("ccnet_phase"))
+    seed = load_seed(data_dir / "bandai/dataset-1/dataset-1_walk_active_001.bvh")
+    result = generate_from_seed(seed, model, norm, meta, types=["walk"], seconds=10.0, ik=False)
+    m = result.rig.to_model(result.motion)
+    seed_speed = metrics.root_speed(m.root_positions[:result.n_seed], m.fps)
+    speed = metrics.root_speed(m.root_positions[result.n_seed + 120:], m.fps)
+    assert 0.6 * seed_speed < speed < 1.4 * seed_speed, (seed_speed, speed)

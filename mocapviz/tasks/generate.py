@@ -166,7 +166,8 @@ class Generator:
         (B, S + n_frames, n_types); traj (B, T_c, 12) raw c^d indexed by frame (repeated
         cyclically); path (B, T_p, 2) world X/Z per frame (needs start_root (B, 3) and
         start_heading (B,) of the frame before the seed, as the clip's); seed_traj (B, S, 12) raw
-        c^d of the seed frames (default: from ``traj``, ``path``, or the network's prediction)."""
+        c^d of the seed frames (default, and in its NaN rows: from ``traj``, ``path``, or the network's
+        prediction)."""
         from tqdm.auto import tqdm
         with torch.inference_mode():
             return self._run(seed_x, skel, types, n_frames, traj, path, seed_traj, start_root,
@@ -208,14 +209,15 @@ class Generator:
                 r = x_t[:, root_b] * norm.x_std[root_b] + norm.x_mean[root_b]  # (vx, vz, yaw rate, height)
                 root_xz += from_heading_frame_xz(r[:, :2], heading) / FPS
                 heading += r[:, 2] / FPS
-            if t + 1 < s and seed_n is not None:
-                c_next = seed_n[:, t + 1]
-            elif traj_n is not None:
+            if traj_n is not None:
                 c_next = traj_n[:, (t + 1) % traj_n.shape[1]]
             elif path is not None:
                 c_next = norm.norm_traj(path_controls(path, t + 1, root_xz, heading))
             else:
                 c_next = pred_traj
+            if t + 1 < s and seed_n is not None:  # the seed's own c^d where it has one (not NaN)
+                seed_c = seed_n[:, t + 1]
+                c_next = np.where(np.isnan(seed_c), c_next[:, :seed_c.shape[1]], seed_c)
             if phase is not None:  # the seed's phase, then turned on at its pace or the network's own
                 if t + 1 >= s and self.phase_source == "network":
                     phase[:, t + 1] = on_circle(pred_traj[:, -2:])

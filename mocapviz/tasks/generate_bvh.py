@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mocapviz.features.ccnet import FeatureLayout, heading_angles, motion_features
+from mocapviz.features.ccnet import TRAJ_STEPS, FeatureLayout, heading_angles, motion_features
 from mocapviz.features.ccnet_joints import known_alignment
 from mocapviz.features.motion_types import one_hot
 from mocapviz.io.asfamc import read_amc
@@ -197,12 +197,24 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     gen = Generator(model, normaliser, sample=sample, seed=rng_seed, temperature=temperature,
                     noise_correlation=noise_correlation).run(
         feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
-        seed_traj=feats.traj[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
+        seed_traj=seed_controls(feats.traj)[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
         progress=progress)
     gen_m = rig.expressible(_scaled(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading,
                                                ik=ik, include_seed=False), 1 / size))
     out = _concat(seed60, rig.from_model(gen_m))
     return SeedGeneration(out, n_seed, gen_m, rig)
+
+
+def seed_controls(traj: np.ndarray) -> np.ndarray:
+    """The seed's c^d (F, 12) with NaN rows (the Generator's own c^d: its prediction, or the
+    path's) where a frame's look-ahead passes the seed's last frame. Why: there the seed knows no
+    future and :func:`~mocapviz.features.ccnet.trajectory_control` extrapolates it at the last
+    0.25 s velocity, which no training window shows: a Bandai walk's first 2 s seed with the
+    extrapolated c^d ran at 3.4 m/s for a minute, with the network's own c^d in its last second
+    it walked at 1.36 (the same as with the take's true future; the take walks at 1.46)."""
+    traj = traj.copy()
+    traj[max(0, len(traj) - TRAJ_STEPS[-1]):] = np.nan
+    return traj
 
 
 def seen_scale(root_height: float, normaliser, z: float) -> float:

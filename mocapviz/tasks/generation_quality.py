@@ -145,6 +145,39 @@ def real_pose_distance(ds, bank: metrics.PoseBank, motion_type: str, n_clips: in
     return float(np.mean([pose_distance(ds.clip_motion(int(i)), bank) for i in rows]))
 
 
+class References(dict):
+    """motion type -> (activity, jitter, root speed, pose distance) of the real clips of that
+    type (:func:`real_reference`, :func:`real_pose_distance`), built on first use, with the
+    :class:`TypeBanks` they share."""
+
+    def __init__(self, ds, banks: TypeBanks | None = None):
+        super().__init__()
+        self.ds, self.banks = ds, TypeBanks(ds) if banks is None else banks
+
+    def __missing__(self, motion_type: str) -> tuple[float, float, float, float]:
+        self[motion_type] = (*real_reference(self.ds, motion_type),
+                             real_pose_distance(self.ds, self.banks[motion_type], motion_type))
+        return self[motion_type]
+
+
+def motion_quality(motion, motion_type: str, refs: References, seed_root_height: float) -> dict:
+    """The :data:`QUALITY_KEYS` of a generated stretch ``motion`` (a Motion on the model's
+    joints, e.g. the second half of a generation) against the real clips of ``motion_type``;
+    ``seed_root_height`` (m) is the seed's mean root height. One home for the per-clip numbers of
+    :func:`generation_quality` and of generations from a user's file
+    (``benchmarks/bench_generate_files.py``)."""
+    fps = motion.fps
+    local = metrics.local_positions(motion.positions(), motion.skeleton)
+    act, jit, speed, dist = refs[motion_type]
+    root_speed = metrics.root_speed(motion.root_positions, fps)
+    return dict(
+        type=motion_type, freezing_share=metrics.freezing_share(local, fps),
+        activity_ratio=metrics.activity(local, fps) / act, jitter_ratio=metrics.jitter(local, fps) / jit,
+        pose_distance_ratio=pose_distance(motion, refs.banks[motion_type]) / dist,
+        root_speed_ratio=root_speed / speed, root_speed_difference=root_speed - speed,
+        root_height_ratio=float(motion.root_positions[:, 1].mean() / seed_root_height))
+
+
 def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None, n_seed: int = SEED_FRAMES,
                        seed: int = 0, temperature: float = 1.0, banks: TypeBanks | None = None,
                        noise_correlation: float = 0.0, phase_source: str = "seed_pace") -> dict:
@@ -160,23 +193,13 @@ def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None,
     gen = Generator(model, norm, batch=len(rows), sample=sample, seed=seed, temperature=temperature,
                     noise_correlation=noise_correlation, phase_source=phase_source).run(
         x, skel, types, n, seed_traj=traj)
-    banks = TypeBanks(ds) if banks is None else banks
-    refs, per_clip, motions = {}, {}, {}
+    refs = References(ds, banks)
+    per_clip, motions = {}, {}
     for k, i in enumerate(rows):
         r = ds.clips.iloc[i]
         m = gen.motion(k, ds.skeleton(i), (r.root_x, r.root_y, r.root_z), r.heading, ik=False)
-        half = m[n_seed + n // 2:]
-        local = metrics.local_positions(half.positions(), half.skeleton)
-        if r["type"] not in refs:
-            refs[r["type"]] = (*real_reference(ds, r["type"]), real_pose_distance(ds, banks[r["type"]], r["type"]))
-        act, jit, speed, dist = refs[r["type"]]
-        root_speed = metrics.root_speed(half.root_positions, m.fps)
-        per_clip[r["clip"]] = dict(
-            type=r["type"], freezing_share=metrics.freezing_share(local, m.fps),
-            activity_ratio=metrics.activity(local, m.fps) / act, jitter_ratio=metrics.jitter(local, m.fps) / jit,
-            pose_distance_ratio=pose_distance(half, banks[r["type"]]) / dist,
-            root_speed_ratio=root_speed / speed, root_speed_difference=root_speed - speed,
-            root_height_ratio=float(half.root_positions[:, 1].mean() / m.root_positions[:n_seed, 1].mean()))
+        per_clip[r["clip"]] = motion_quality(m[n_seed + n // 2:], r["type"], refs,
+                                             float(m.root_positions[:n_seed, 1].mean()))
         motions[r["clip"]] = m
     summary = {key: [round(float(f(v)), 3) for f in (np.min, np.median, np.max)]
                for key in QUALITY_KEYS for v in [[c[key] for c in per_clip.values()]]}
