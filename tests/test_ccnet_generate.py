@@ -185,6 +185,21 @@ def test_latent_model_samples_z_and_writes_the_decoders_mean(ds, committed):
     np.testing.assert_array_equal(hot.x_norm[0, s:, :n][:, ~const], inc[0, s - 1:, :n][:, ~const])
 
 
+def test_held_latent_draws_a_new_z_every_latent_hold_frames(ds, committed):
+    """With CCNetConfig.latent_hold k the generator draws z at frames 0, k, 2k, ... and keeps it."""
+    model, norm, _ = committed
+    latent = CCNet(replace(model.cfg, latent=4, latent_hold=5)).eval()
+    latent.load_state_dict(model.state_dict(), strict=False)
+    g = Generator(latent, norm, sample=True, seed=1)
+    drawn = []
+    draw = g._latent
+    g._latent = lambda skip: drawn.append(draw(skip)) or drawn[-1]
+    _, x, traj, skel, ti = seed_inputs(ds, "35_01")
+    g.run(x, skel, one_hot([ti], model.cfg.n_types), 30, seed_traj=traj)
+    assert len(drawn) == -(-(x.shape[1] + 30 - 1) // 5)   # one per 5 of the steps
+    assert not np.array_equal(drawn[0], drawn[1])
+
+
 def test_correlated_draws_keep_unit_variance_with_the_asked_lag_one_correlation(committed):
     model, norm, _ = committed
     for rho in (0.0, 0.9):

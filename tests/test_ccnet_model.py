@@ -330,6 +330,30 @@ def test_latent_posterior_sample_in_training_mean_in_eval():
     assert not ev["prior_mean"].any() and not ev["prior_logvar"].any()  # N(0, I)
 
 
+def test_held_latent_is_one_z_per_block_with_one_kl_per_block():
+    """latent_hold k: the posterior's mean and log-variance are averaged over each block of k
+    frames (the last may be shorter), the decoder sees that block's z on each of its frames, and
+    the KL counts each z once, per frame of the window."""
+    from mocapviz.training.losses import gaussian_kl
+    cfg, m = latent_net(latent_hold=3)
+    _, per_frame = latent_net()
+    per_frame.load_state_dict(m.state_dict())
+    x, skel, traj, types = inputs(cfg, t=20)
+    target = torch.randn_like(x)
+    with torch.no_grad():
+        ev = m(x, skel, traj, types, target_x=target)
+        frames = per_frame(x, skel, traj, types, target_x=target)
+        by_z = m(x, skel, traj, types, z=ev["z_mean"].repeat_interleave(3, 1)[:, :20])["mean"]
+    assert ev["z_mean"].shape == (2, 7, cfg.latent)                      # ceil(20 / 3) blocks
+    torch.testing.assert_close(ev["z_mean"][:, 1], frames["z_mean"][:, 3:6].mean(1))
+    torch.testing.assert_close(ev["z_logvar"][:, 6], frames["z_logvar"][:, 18:].mean(1))
+    torch.testing.assert_close(ev["mean"], by_z)
+    out = dict(ev, sigma=torch.ones_like(ev["mean"]), traj_sigma=torch.ones_like(ev["traj_mean"]))
+    kl = ccnet_loss(out, target, torch.zeros_like(ev["traj_mean"]), cfg.n_continuous)["kl"]
+    blocks = gaussian_kl(ev["z_mean"], ev["z_logvar"], 0.0 * ev["z_mean"], 0.0 * ev["z_mean"]).sum((1, 2))
+    assert kl.item() == pytest.approx(blocks.mean().item() / 20, rel=1e-5)
+
+
 def test_learned_prior_gives_the_mean_outputs_z():
     """With a learned prior the mean output decodes the prior's mean given the past."""
     cfg, m = latent_net(learned_prior=True)

@@ -71,6 +71,14 @@ def phase_basis(h, phase, harmonics: int):
     return (waves[..., :, None] * hb[..., None, :]).reshape(*h.shape[:-1], -1)
 
 
+def block_means(v: torch.Tensor, k: int) -> torch.Tensor:
+    """(B, T, C) -> (B, ceil(T / k), C): the mean over each block of ``k`` frames (the last one
+    may be shorter); ``v`` itself for k = 1."""
+    if k == 1:
+        return v
+    return torch.stack([v[:, i:i + k].mean(1) for i in range(0, v.shape[1], k)], 1)
+
+
 @register_model("ccnet")
 class CCNet(nn.Module):
     """The network of paper §3.2, registered as "ccnet" (see :mod:`mocapviz.models.protocol`);
@@ -106,7 +114,7 @@ class CCNet(nn.Module):
                            n_traj=layout.n_traj + 2 * train_cfg.phase, phase=train_cfg.phase,
                            n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout,
                            residual=train_cfg.residual, residual_gain=train_cfg.residual_gain,
-                           latent=train_cfg.latent, learned_prior=train_cfg.learned_prior,
+                           latent=train_cfg.latent, learned_prior=train_cfg.learned_prior, latent_hold=train_cfg.latent_hold,
                            phase_harmonics=train_cfg.phase_harmonics,
                            residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
                                                  for b in train_cfg.residual_blocks))
@@ -130,15 +138,18 @@ class CCNet(nn.Module):
 
         With a latent (``cfg.latent``): ``target_x`` (B, T, n_x), the true next frames, gives z
         from the posterior (a sample in training mode, its mean in eval mode; the output then
-        also holds ``z_mean``, ``z_logvar`` and the prior's ``prior_mean``, ``prior_logvar``);
+        also holds ``z_mean``, ``z_logvar`` and the prior's ``prior_mean``, ``prior_logvar``, one
+        per block of ``cfg.latent_hold`` frames: (B, ceil(T / latent_hold), latent));
         else ``z`` (B, T, latent) is used, or the prior's mean."""
         skip = self.trunk(x, skel, traj, types)
         extra = {}
         if self.cfg.latent:
             if target_x is not None:
-                z_mean, z_logvar = self.posterior_of(skip, x, target_x)
+                k = self.cfg.latent_hold  # one z per block of k frames (its prior: at the block's first frame)
+                z_mean, z_logvar = (block_means(v, k) for v in self.posterior_of(skip, x, target_x))
                 z = z_mean + torch.exp(0.5 * z_logvar) * torch.randn_like(z_mean) if self.training else z_mean
-                prior_mean, prior_logvar = self.prior_of(skip)
+                z = z.repeat_interleave(k, dim=1)[:, :skip.shape[1]]
+                prior_mean, prior_logvar = self.prior_of(skip[:, ::k])
                 extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
             elif z is None:
                 z = self.prior_of(skip)[0]

@@ -55,6 +55,13 @@ class CCNetConfig:
     # prior's mean, the likeliest z for this past, not 0. It did not help either: config
     # wide_latent froze on 6 of 10 test seeds, both walks among them (issue 9).
     learned_prior: bool = False
+    # latent_hold: one z per this many consecutive frames, in training (the posterior's mean and
+    # log-variance averaged over the block, one KL per block) and in generation (a draw every
+    # latent_hold frames): z becomes a short plan that the decoder follows for a while, not a
+    # per-frame innovation. Why: drawn independently every frame, a per-frame z made samples
+    # shake (ccnet_phase: jitter 2.7-28x the real clips'), and held over frames at generation only
+    # (noise_correlation 0.95) it was a push the network never saw persist (walks ran at ~3x pace).
+    latent_hold: int = 1
     # phase: the last two channels of c^d are a local motion phase (sin, cos)
     # (:mod:`mocapviz.features.phase`), given as an input and predicted with c^d; generation turns
     # it on at the seed's pace, or feeds the predicted one back (Generator's phase_source; issue 9).
@@ -83,6 +90,8 @@ class CCNetConfig:
             raise ValueError("phase_harmonics needs phase")
         if self.latent < 0:
             raise ValueError(f"latent must be >= 0, got {self.latent}")
+        if self.latent_hold < 1:
+            raise ValueError(f"latent_hold must be >= 1, got {self.latent_hold}")
         if any(not 0 <= a < b <= self.n_continuous for a, b in self.residual_ranges):
             raise ValueError(f"residual_ranges must lie in [0, {self.n_continuous}): {self.residual_ranges}")
 

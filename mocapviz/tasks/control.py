@@ -130,7 +130,7 @@ class ControlSession:
         st.set_static(self.skel_n, self.types[None])
         seed_n = normaliser.norm_traj(np.asarray(seed_traj, np.float32))
         for t in range(self.n_seed - 1):   # teacher-forced seed: frame t with the seed's c^d_{t+1}
-            raw = self.gen._step(self.frames[t][None], seed_n[t + 1][None])
+            raw = self.gen._step(self.frames[t][None], seed_n[t + 1][None], t)
         self.pred_traj = raw[:, self.gen.parts["traj_mean"]].copy()   # the model's next c^d, normalised
 
     def predicted_traj(self) -> np.ndarray:
@@ -145,7 +145,7 @@ class ControlSession:
         c = steer(self.predicted_traj(), turn, speed, self.root_height)
         self.controls.append(c)
         nxt = np.zeros((1, len(self.frames[0])), np.float32)
-        raw = self.gen._step(self.frames[-1][None], self.norm.norm_traj(c)[None])
+        raw = self.gen._step(self.frames[-1][None], self.norm.norm_traj(c)[None], len(self.frames) - 1)
         self.pred_traj = self.gen._write_next(raw, nxt).copy()
         self.frames.append(nxt[0])
         return self.norm.denorm_x(nxt)[0]

@@ -127,12 +127,14 @@ class Generator:
         np.greater(raw[:, out["contact_logits"]], 0, out=dest[:, n:], casting="unsafe")
         return raw[:, out["traj_mean"]]
 
-    def _step(self, x: np.ndarray, c: np.ndarray) -> np.ndarray:
+    def _step(self, x: np.ndarray, c: np.ndarray, t: int) -> np.ndarray:
         """The raw output (B, n_out) for frame t+1 from frame t and c^d_{t+1} (numpy arrays)."""
         if not self.latent:
             return self._plain_step(x, c)
         skip = self._trunk(x, c)
-        return self._head(skip, self._latent(skip), c)
+        if t % self.cfg.latent_hold == 0:  # a new z every latent_hold frames (CCNetConfig.latent_hold)
+            self._z = self._latent(skip)
+        return self._head(skip, self._z, c)
 
     def _latent(self, skip) -> np.ndarray:
         """z of a latent model for the next frame, from its prior given the past (N(0, I) unless
@@ -184,7 +186,7 @@ class Generator:
         cur_type = types[:, 0] if per_frame_types else types
         self.stepper.reset()
         self.raw_outputs = []
-        self._noise = None
+        self._noise = self._z = None
         set_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
             if self.backend == "torch" else self.stepper.set_static
         set_static(skel_n, cur_type)
@@ -222,7 +224,7 @@ class Generator:
                 if t + 1 >= s and self.phase_source == "network":
                     phase[:, t + 1] = on_circle(pred_traj[:, -2:])
                 c_next = np.concatenate([c_next[:, :self.cfg.n_traj - 2], phase[:, t + 1]], axis=1)
-            raw = self._step(x_t, np.ascontiguousarray(c_next))
+            raw = self._step(x_t, np.ascontiguousarray(c_next), t)
             # a view of raw: the residual channels get g x_t added in place
             self.cfg.add_residual(raw[:, self.parts["mean"]], x_t)
             if self.keep_outputs:

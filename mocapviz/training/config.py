@@ -38,6 +38,7 @@ class TrainConfig:
     latent: int = 0                 # size of CCNet's per-frame latent z (CCNetConfig.latent; 0: the paper's)
     kl_weight: float = 1.0          # weight of the latent's KL term (1: the ELBO)
     learned_prior: bool = False     # z's prior from the past (CCNetConfig.learned_prior), not N(0, I)
+    latent_hold: int = 1            # one z per this many frames (CCNetConfig.latent_hold)
     type_balance: float = 0.0       # windows drawn with weight 1 / (windows of their type)^this (WindowData.draw_train)
     phase: bool = False             # c^d gains a local motion phase (CCNetConfig.phase, features.phase)
     phase_harmonics: int = 0        # a phase-functioned decoder (CCNetConfig.phase_harmonics)

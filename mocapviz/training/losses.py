@@ -88,8 +88,10 @@ def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_c
     smooth = smoothness(out["mean"], channels)
     total = gaussian + l1 * smooth + l2 * contact + l3 * traj_nll
     parts = dict(nll=nll, smooth=smooth, contact=contact, traj_nll=traj_nll)
-    if "z_mean" in out:  # a latent model (CCNetConfig.latent): the ELBO's KL(posterior || prior) per frame
-        parts["kl"] = gaussian_kl(out["z_mean"], out["z_logvar"], out["prior_mean"], out["prior_logvar"]).sum(-1).mean()
+    if "z_mean" in out:  # a latent model (CCNetConfig.latent): the ELBO's KL(posterior || prior) per frame,
+        # each z counted once (one per block of CCNetConfig.latent_hold frames)
+        kl = gaussian_kl(out["z_mean"], out["z_logvar"], out["prior_mean"], out["prior_logvar"])
+        parts["kl"] = kl.sum((-1, -2)).mean() / out["mean"].shape[-2]
         total = total + kl_weight * parts["kl"]
     return dict(loss=total, **parts)
 
