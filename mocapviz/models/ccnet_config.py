@@ -61,6 +61,9 @@ class CCNetConfig:
     # per-frame innovation. Why: drawn independently every frame, a per-frame z made samples
     # shake (ccnet_phase: jitter 2.7-28x the real clips'), and held over frames at generation only
     # (noise_correlation 0.95) it was a push the network never saw persist (walks ran at ~3x pace).
+    # Tried on the phase config (run P9 in models/README.md, latent_hold 15): sampled jitter 1.2-19x
+    # the real clips' on the validation seeds (walks 4.5x instead of 8x), still above 3x on most,
+    # and the mean output's run and dash slowed to a quarter of their pace. Off by default.
     latent_hold: int = 1
     # phase: the last two channels of c^d are a local motion phase (sin, cos)
     # (:mod:`mocapviz.features.phase`), given as an input and predicted with c^d; generation turns

@@ -119,6 +119,10 @@ TRAIN_CONFIGS = {
     # ccnet_phase). 29 min on one shared core.
     "phase": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
                          phase=True, phase_harmonics=2, latent=32),
+    # Its samples shake (z drawn each frame: jitter 2.7-28x the real clips'). Overrides of "phase"
+    # that did not fix it (models/README.md, runs P6-P10): learned_prior, noise_std 0.01,
+    # latent_hold 15 (sampled jitter 1.2-19x on the validation seeds, and the run slows to 0.27x),
+    # latent_hold 30 with noise_std 0.01 (0.8-11x; the run 0.38x).
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }
