@@ -12,7 +12,7 @@ from mocapviz.features.motion_types import one_hot
 from mocapviz.ik import foot_joints, remove_foot_sliding
 from mocapviz import metrics
 from mocapviz.metrics import foot_sliding
-from mocapviz.models.ccnet import CCNet
+from mocapviz.models.ccnet import CCNet, ar_prior
 from mocapviz.models.steppers import CCNetStepper, NumpyStepper
 from mocapviz.tasks.generate import Generator
 
@@ -198,6 +198,58 @@ def test_held_latent_draws_a_new_z_every_latent_hold_frames(ds, committed):
     g.run(x, skel, one_hot([ti], model.cfg.n_types), 30, seed_traj=traj)
     assert len(drawn) == -(-(x.shape[1] + 30 - 1) // 5)   # one per 5 of the steps
     assert not np.array_equal(drawn[0], drawn[1])
+
+
+def test_blended_latent_feeds_the_decoder_a_continuous_z(ds, committed):
+    """latent_lerp with k: the generator draws a knot every k frames (two at the start), and the
+    z the decoder sees is their linear blend: its path has no jumps and bends only at knots."""
+    model, norm, _ = committed
+    latent = CCNet(replace(model.cfg, latent=4, latent_hold=5, latent_lerp=True)).eval()
+    latent.load_state_dict(model.state_dict(), strict=False)
+    g = Generator(latent, norm, sample=True, seed=1)
+    seen, knots = [], []
+    head, draw = g._head, g._latent
+    g._head = lambda skip, z, c: seen.append(z.copy()) or head(skip, z, c)
+    g._latent = lambda skip: knots.append(draw(skip)) or knots[-1]
+    _, x, traj, skel, ti = seed_inputs(ds, "35_01")
+    g.run(x, skel, one_hot([ti], model.cfg.n_types), 30, seed_traj=traj)
+    z = np.stack(seen)[:, 0]                                             # (steps, latent)
+    steps = x.shape[1] + 30 - 1
+    assert len(knots) == -(-steps // 5) + 1
+    np.testing.assert_allclose(z[::5], np.stack(knots)[:-1, 0][:len(z[::5])], atol=1e-6)
+    np.testing.assert_allclose(z[7], 0.6 * knots[1][0] + 0.4 * knots[2][0], atol=1e-6)
+    bend = np.abs(z[2:] + z[:-2] - 2 * z[1:-1]).max(-1)
+    at_knot = (np.arange(1, len(z) - 1) % 5) == 0
+    assert bend[~at_knot].max() < 1e-5 and bend[at_knot].min() > 1e-3
+
+
+@pytest.mark.parametrize("order, lag1", [(1, 0.8), (2, 2 * 0.8 / (1 + 0.64))])
+def test_ar_prior_draws_continue_the_last_z(committed, order, lag1):
+    """With CCNetConfig.latent_ar rho the generator's z is the prior's AR process: unit
+    variance, lag-one correlation rho (order 1) or 2 rho / (1 + rho^2) (order 2, whose
+    frame-to-frame changes are themselves correlated); a temperature scales the innovations; the
+    mean output's z is 0 throughout."""
+    model, norm, _ = committed
+    latent = CCNet(replace(model.cfg, latent=64, latent_ar=0.8, latent_ar_order=order)).eval()
+    g = Generator(latent, norm, sample=True, seed=2)
+    skip = np.zeros((1, latent.cfg.skip_channels), dtype=np.float32)
+    zs = []
+    for _ in range(6000):
+        zs.append(g._latent(skip)[0])
+        g._z_past = [zs[-1][None]] + g._z_past[:order - 1]
+    z = np.stack(zs)                                                    # (frames, latent)
+    corr = lambda k: np.mean([np.corrcoef(z[:-k, j], z[k:, j])[0, 1] for j in range(z.shape[1])])  # noqa: E731
+    assert abs(z.std() - 1.0) < 0.05 and abs(corr(1) - lag1) < 0.02
+    d = np.diff(z, axis=0)
+    changes_corr = np.mean([np.corrcoef(d[:-1, j], d[1:, j])[0, 1] for j in range(z.shape[1])])
+    assert (changes_corr > 0.5) == (order == 2)                         # order 2: smooth paths
+    g.temperature = 0.5
+    want = 0.5 * np.sqrt(1 - 0.64 if order == 1 else 0.36 ** 3 / 1.64)
+    steps = np.stack([g._latent(skip)[0] for _ in range(20)]) - ar_prior(g._z_past, 0.8, order)[0]
+    assert abs(steps.std() / want - 1) < 0.05                           # the innovations, scaled by T
+    mean = Generator(latent, norm, sample=False)
+    mean._z_past = [mean._latent(skip)]
+    assert not mean._z_past[0].any() and not mean._latent(skip).any()
 
 
 def test_correlated_draws_keep_unit_variance_with_the_asked_lag_one_correlation(committed):

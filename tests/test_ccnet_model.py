@@ -293,10 +293,12 @@ def latent_net(**kw):
     return cfg, m
 
 
+@pytest.mark.parametrize("traj_without_z", [False, True])
 @pytest.mark.parametrize("backend", ["torch", "numpy"])
-def test_latent_incremental_equals_full_recompute(backend):
-    """With a latent, the stepper given the same z per frame equals the full forward."""
-    cfg, m = latent_net()
+def test_latent_incremental_equals_full_recompute(backend, traj_without_z):
+    """With a latent, the stepper given the same z per frame equals the full forward (also when
+    the predicted c^d does not see z)."""
+    cfg, m = latent_net(traj_without_z=traj_without_z)
     x, skel, traj, types = inputs(cfg, b=2, t=50)
     z = torch.randn(2, 50, cfg.latent, generator=torch.Generator().manual_seed(3))
     with torch.no_grad():
@@ -310,6 +312,18 @@ def test_latent_incremental_equals_full_recompute(backend):
     mean = torch.stack(steps, 1)[..., :cfg.n_continuous]
     assert torch.allclose(mean, full, atol=1e-4)
     assert not torch.allclose(full, zero, atol=1e-2)  # z matters
+
+
+def test_traj_without_z_plans_from_the_past_alone():
+    """traj_without_z: the predicted c^d is the same whatever z; the frame's mean is not."""
+    cfg, m = latent_net(traj_without_z=True)
+    x, skel, traj, types = inputs(cfg, t=20)
+    z = torch.randn(2, 20, cfg.latent)
+    with torch.no_grad():
+        a, b = m(x, skel, traj, types, z=z), m(x, skel, traj, types, z=-z)
+    torch.testing.assert_close(a["traj_mean"], b["traj_mean"])
+    torch.testing.assert_close(a["traj_sigma"], b["traj_sigma"])
+    assert not torch.allclose(a["mean"], b["mean"], atol=1e-3)
 
 
 def test_latent_posterior_sample_in_training_mean_in_eval():
@@ -352,6 +366,70 @@ def test_held_latent_is_one_z_per_block_with_one_kl_per_block():
     kl = ccnet_loss(out, target, torch.zeros_like(ev["traj_mean"]), cfg.n_continuous)["kl"]
     blocks = gaussian_kl(ev["z_mean"], ev["z_logvar"], 0.0 * ev["z_mean"], 0.0 * ev["z_mean"]).sum((1, 2))
     assert kl.item() == pytest.approx(blocks.mean().item() / 20, rel=1e-5)
+
+
+def test_latent_weights_hand_computed():
+    from mocapviz.models.ccnet import latent_weights
+    held = [[1, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0], [0, 0, 1]]
+    np.testing.assert_array_equal(latent_weights(5, 2), held)
+    blended = [[1, 0, 0], [.5, .5, 0], [0, 1, 0], [0, .5, .5], [0, 0, 1]]
+    np.testing.assert_array_equal(latent_weights(5, 2, lerp=True), blended)
+    np.testing.assert_array_equal(latent_weights(6, 2, lerp=True)[-1], [0, 0, .5, .5])  # a knot past the end
+    np.testing.assert_array_equal(latent_weights(4, 1, lerp=True), np.eye(4))
+
+
+def test_blended_latent_pools_the_posterior_with_the_hat_weights():
+    """latent_lerp: a knot's posterior is the hat-weighted mean of the frames' posteriors, and the
+    decoder sees the linear blend of the knots."""
+    cfg, m = latent_net(latent_hold=4, latent_lerp=True)
+    _, per_frame = latent_net()
+    per_frame.load_state_dict(m.state_dict())
+    x, skel, traj, types = inputs(cfg, t=10)
+    target = torch.randn_like(x)
+    with torch.no_grad():
+        ev = m(x, skel, traj, types, target_x=target)
+        frames = per_frame(x, skel, traj, types, target_x=target)
+    zk, zf = ev["z_mean"], frames["z_mean"]
+    assert zk.shape == (2, 4, cfg.latent)                                # knots at frames 0, 4, 8, 12
+    torch.testing.assert_close(zk[:, 1], (zf[:, 1:8] * torch.tensor([.25, .5, .75, 1, .75, .5, .25])[:, None]).sum(1) / 4)
+    torch.testing.assert_close(zk[:, 2], (zf[:, 5:10] * torch.tensor([.25, .5, .75, 1, .75])[:, None]).sum(1) / 3.25)  # frames 5-9
+    blend = torch.stack([zk[:, t // 4] * (1 - (t % 4) / 4) + zk[:, t // 4 + 1] * ((t % 4) / 4) for t in range(10)], 1)
+    with torch.no_grad():
+        torch.testing.assert_close(ev["mean"], m(x, skel, traj, types, z=blend)["mean"])
+    with pytest.raises(ValueError, match="latent_lerp"):
+        latent_net(latent_lerp=True, learned_prior=True)
+
+
+def test_ar_prior_ties_each_z_to_the_one_before():
+    """latent_ar rho: the first z's prior is N(0, I), each later one's N(rho z_prev, 1 - rho^2)
+    given the previous (sampled) z, and the KL is the hand-computed one against that prior."""
+    cfg, m = latent_net(latent_ar=0.9)
+    x, skel, traj, types = inputs(cfg, t=20)
+    target = torch.randn_like(x)
+    with torch.no_grad():
+        ev = m(x, skel, traj, types, target_x=target)
+    z = ev["z_mean"]  # eval: z is the posterior mean
+    assert not ev["prior_mean"][:, 0].any() and not ev["prior_logvar"][:, 0].any()
+    torch.testing.assert_close(ev["prior_mean"][:, 1:], 0.9 * z[:, :-1])
+    assert torch.allclose(ev["prior_logvar"][:, 1:], torch.tensor(math.log(1 - 0.81)))
+    var, mean = ev["z_logvar"].exp(), ev["z_mean"]
+    by_hand = 0.5 * (math.log(0.19) - ev["z_logvar"][:, 1:] + (var[:, 1:] + (mean[:, 1:] - 0.9 * mean[:, :-1]) ** 2) / 0.19 - 1)
+    first = 0.5 * (var[:, 0] + mean[:, 0] ** 2 - 1 - ev["z_logvar"][:, 0])
+    out = dict(ev, sigma=torch.ones_like(ev["mean"]), traj_sigma=torch.ones_like(ev["traj_mean"]))
+    kl = ccnet_loss(out, target, torch.zeros_like(ev["traj_mean"]), cfg.n_continuous)["kl"]
+    assert kl.item() == pytest.approx(((by_hand.sum((1, 2)) + first.sum(-1)).mean() / 20).item(), rel=1e-5)
+    cfg2, m2 = latent_net(latent_ar=0.9, latent_ar_order=2)
+    with torch.no_grad():
+        ev2 = m2(x, skel, traj, types, target_x=target)
+    z2, r = ev2["z_mean"], 2 * 0.9 / (1 + 0.81)
+    torch.testing.assert_close(ev2["prior_mean"][:, 1], r * z2[:, 0])     # the second z: given the first only
+    torch.testing.assert_close(ev2["prior_mean"][:, 2:], 1.8 * z2[:, 1:-1] - 0.81 * z2[:, :-2])
+    assert ev2["prior_logvar"][0, 1, 0].item() == pytest.approx(math.log(1 - r * r), rel=1e-5)
+    assert ev2["prior_logvar"][0, 2, 0].item() == pytest.approx(math.log(0.19 ** 3 / 1.81), rel=1e-5)
+    with pytest.raises(ValueError, match="latent_ar"):
+        latent_net(latent_ar=1.0)
+    with pytest.raises(ValueError, match="choose one"):
+        latent_net(latent_ar=0.5, learned_prior=True)
 
 
 def test_learned_prior_gives_the_mean_outputs_z():

@@ -18,6 +18,8 @@ its presets in :mod:`mocapviz.models.ccnet_config`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import torch
 import torch.nn.functional as F
@@ -71,12 +73,41 @@ def phase_basis(h, phase, harmonics: int):
     return (waves[..., :, None] * hb[..., None, :]).reshape(*h.shape[:-1], -1)
 
 
-def block_means(v: torch.Tensor, k: int) -> torch.Tensor:
-    """(B, T, C) -> (B, ceil(T / k), C): the mean over each block of ``k`` frames (the last one
-    may be shorter); ``v`` itself for k = 1."""
-    if k == 1:
-        return v
-    return torch.stack([v[:, i:i + k].mean(1) for i in range(0, v.shape[1], k)], 1)
+def latent_weights(n_frames: int, k: int, lerp: bool = False) -> np.ndarray:
+    """(T, J) weights from J knots of z to the T frames: frame t's z is sum_j W[t, j] z_j.
+
+    Held (``lerp`` False, CCNetConfig.latent_hold): one knot per block of ``k`` frames, W[t, t // k]
+    = 1. Blended (``lerp``, CCNetConfig.latent_lerp): knots at frames 0, k, 2k, ... up to the first
+    at or past the last frame, and z between two knots is their linear blend (hat functions), so
+    z's path has no jumps. A knot's posterior pools the frames' posteriors with these weights
+    (the columns normalised); for k = 1 both are the identity (a z per frame)."""
+    t = np.arange(n_frames)
+    if not lerp:
+        return (t[:, None] // k == np.arange(-(-n_frames // k))[None]).astype(np.float32)
+    knots = np.arange(-(-(n_frames - 1) // k) + 1) * k
+    return np.clip(1.0 - np.abs(t[:, None] - knots[None]) / k, 0.0, None).astype(np.float32)
+
+
+def ar_prior(past: list, rho: float, order: int) -> tuple:
+    """The AR prior of CCNetConfig.latent_ar: mean and log-variance of z_t given ``past`` =
+    [z_{t-1}, z_{t-2}, ...] (as many as known, at most ``order``; torch or numpy arrays), for a
+    stationary Gaussian process with unit variance per channel.
+
+    Order 1: z_t = rho z_{t-1} + sqrt(1 - rho^2) e. Order 2: two AR(1) filters in series (a
+    critically damped process, whose path is smooth: its frame-to-frame change is itself
+    correlated), z_t = 2 rho z_{t-1} - rho^2 z_{t-2} + c e with c^2 = (1 - rho^2)^3 / (1 + rho^2);
+    its lag-one correlation is r = 2 rho / (1 + rho^2), so a second z given only the first is
+    N(r z_1, 1 - r^2). No past: N(0, 1)."""
+    if not past:
+        return 0.0, 0.0
+    if order == 1:
+        coefs, var = (rho,), 1.0 - rho * rho
+    elif len(past) == 1:
+        r = 2 * rho / (1 + rho * rho)
+        coefs, var = (r,), 1.0 - r * r
+    else:
+        coefs, var = (2 * rho, -rho * rho), (1 - rho * rho) ** 3 / (1 + rho * rho)
+    return sum(a * z for a, z in zip(coefs, past)), math.log(var)
 
 
 @register_model("ccnet")
@@ -115,6 +146,8 @@ class CCNet(nn.Module):
                            n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout,
                            residual=train_cfg.residual, residual_gain=train_cfg.residual_gain,
                            latent=train_cfg.latent, learned_prior=train_cfg.learned_prior, latent_hold=train_cfg.latent_hold,
+                           latent_ar=train_cfg.latent_ar, latent_ar_order=train_cfg.latent_ar_order,
+                           latent_lerp=train_cfg.latent_lerp, traj_without_z=train_cfg.traj_without_z,
                            phase_harmonics=train_cfg.phase_harmonics,
                            residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
                                                  for b in train_cfg.residual_blocks))
@@ -139,17 +172,22 @@ class CCNet(nn.Module):
         With a latent (``cfg.latent``): ``target_x`` (B, T, n_x), the true next frames, gives z
         from the posterior (a sample in training mode, its mean in eval mode; the output then
         also holds ``z_mean``, ``z_logvar`` and the prior's ``prior_mean``, ``prior_logvar``, one
-        per block of ``cfg.latent_hold`` frames: (B, ceil(T / latent_hold), latent));
+        per knot of :func:`latent_weights` (B, J, latent));
         else ``z`` (B, T, latent) is used, or the prior's mean."""
         skip = self.trunk(x, skel, traj, types)
         extra = {}
         if self.cfg.latent:
             if target_x is not None:
-                k = self.cfg.latent_hold  # one z per block of k frames (its prior: at the block's first frame)
-                z_mean, z_logvar = (block_means(v, k) for v in self.posterior_of(skip, x, target_x))
-                z = z_mean + torch.exp(0.5 * z_logvar) * torch.randn_like(z_mean) if self.training else z_mean
-                z = z.repeat_interleave(k, dim=1)[:, :skip.shape[1]]
-                prior_mean, prior_logvar = self.prior_of(skip[:, ::k])
+                # one z per knot: per block of k frames, or blended between knots k frames apart
+                # (latent_weights); a knot's prior from the skip sum at its first frame
+                k, n = self.cfg.latent_hold, skip.shape[1]
+                w = torch.from_numpy(latent_weights(n, k, self.cfg.latent_lerp)).to(skip)
+                pool = w / w.sum(0)
+                z_mean, z_logvar = (torch.einsum("tj,btl->bjl", pool, v) for v in self.posterior_of(skip, x, target_x))
+                z_knots = z_mean + torch.exp(0.5 * z_logvar) * torch.randn_like(z_mean) if self.training else z_mean
+                z = torch.einsum("tj,bjl->btl", w, z_knots)
+                at = torch.argmax(w, 0)  # (J,) each knot's frame: its block's first, or the last for a knot past it
+                prior_mean, prior_logvar = self.prior_of(skip[:, at], z_knots)
                 extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
             elif z is None:
                 z = self.prior_of(skip)[0]
@@ -170,25 +208,44 @@ class CCNet(nn.Module):
 
     def head(self, skip: torch.Tensor, z: torch.Tensor | None = None, traj: torch.Tensor | None = None) -> torch.Tensor:
         """The decoder: raw output (..., n_out) from the skip sum (and z, with a latent; and the
-        phase in the control c^d ``traj``, with ``phase_harmonics``)."""
-        if self.cfg.latent:
-            skip = skip + self.z_in(z)
+        phase in the control c^d ``traj``, with ``phase_harmonics``). With ``cfg.traj_without_z``
+        the predicted c^d (the output's last columns) is decoded from the skip sum alone."""
+        if not self.cfg.latent:
+            return self._decode(skip, traj)
+        out = self._decode(skip + self.z_in(z), traj)
+        if self.cfg.traj_without_z:
+            at = self.cfg.output_slices["traj_mean"].start
+            out = torch.cat([out[..., :at], self._decode(skip, traj, slice(at, None))], -1)
+        return out
+
+    def _decode(self, skip, traj, columns: slice = slice(None)) -> torch.Tensor:
+        """The decoder's ``columns`` of the raw output from a skip sum (before the ReLU)."""
         h = torch.relu(skip)
-        out = F.linear(h, self.decoder.weight[:, :, 0], self.decoder.bias)
+        out = F.linear(h, self.decoder.weight[columns, :, 0], self.decoder.bias[columns])
         if self.cfg.phase_harmonics:
-            out = out + self.phase_decoder(phase_basis(h, traj[..., -2:], self.cfg.phase_harmonics))
+            out = out + F.linear(phase_basis(h, traj[..., -2:], self.cfg.phase_harmonics), self.phase_decoder.weight[columns])
         return out
 
     def posterior_of(self, skip, x, target_x) -> tuple[torch.Tensor, torch.Tensor]:
         """q(z | past, x_t, x_{t+1}): its mean and log-variance (..., latent)."""
         return self._mean_logvar(self.posterior(torch.cat([skip, x, target_x], -1)))
 
-    def prior_of(self, skip) -> tuple[torch.Tensor, torch.Tensor]:
-        """p(z | past): its mean and log-variance (..., latent); N(0, I) without a learned prior."""
-        if not self.cfg.learned_prior:
-            zero = skip.new_zeros(skip.shape[:-1] + (self.cfg.latent,))
+    def prior_of(self, skip, z_past=None) -> tuple[torch.Tensor, torch.Tensor]:
+        """p(z | past): its mean and log-variance (..., latent); N(0, I) without a learned prior.
+        With ``cfg.latent_ar``: the AR prior (:func:`ar_prior`) of each z of the sequence
+        ``z_past`` (B, N, latent) given the ones before it (None: N(0, I), a first z)."""
+        if self.cfg.learned_prior:
+            return self._mean_logvar(self.prior(skip))
+        zero = skip.new_zeros(skip.shape[:-1] + (self.cfg.latent,))
+        if not self.cfg.latent_ar or z_past is None:
             return zero, zero
-        return self._mean_logvar(self.prior(skip))
+        means, logvars = [], []
+        for t in range(z_past.shape[1]):  # a loop over blocks: the order's first z's have shorter pasts
+            m, lv = ar_prior([z_past[:, t - 1 - k] for k in range(min(t, self.cfg.latent_ar_order))],
+                             self.cfg.latent_ar, self.cfg.latent_ar_order)
+            means.append(zero[:, 0] + m)
+            logvars.append(zero[:, 0] + lv)
+        return torch.stack(means, 1), torch.stack(logvars, 1)
 
     def _mean_logvar(self, p: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """A Gaussian's mean and log-variance from an MLP's (..., 2 latent) output; the

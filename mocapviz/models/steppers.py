@@ -117,12 +117,20 @@ class CCNetStepper:
     def head(self, skip: torch.Tensor, z: torch.Tensor | None = None, traj: torch.Tensor | None = None) -> torch.Tensor:
         """``CCNet.head``: the raw output from the skip sum of :meth:`trunk_step` (and z; and
         the phase in the control ``traj``, with ``phase_harmonics``)."""
+        plain = skip
         if z is not None and self.w.z_w is not None:
             skip = torch.addmm(skip, z.to(self.dtype), self.w.z_w)
+        out = self._decode(skip, traj, slice(None))
+        if z is not None and self.cfg.traj_without_z:  # c^d from the skip sum alone (CCNet.head)
+            at = self.cfg.output_slices["traj_mean"].start
+            out[:, at:] = self._decode(plain, traj, slice(at, None))
+        return out
+
+    def _decode(self, skip, traj, columns: slice) -> torch.Tensor:
         h = skip.relu()
-        out = torch.addmm(self.w.dec_b, h, self.w.dec_w)
+        out = torch.addmm(self.w.dec_b[columns], h, self.w.dec_w[:, columns])
         if self.w.phase_w is not None:
-            out.addmm_(phase_basis(h, traj[:, -2:].to(self.dtype), self.cfg.phase_harmonics), self.w.phase_w)
+            out.addmm_(phase_basis(h, traj[:, -2:].to(self.dtype), self.cfg.phase_harmonics), self.w.phase_w[:, columns])
         return out
 
     def trunk_step(self, x: torch.Tensor, traj: torch.Tensor) -> torch.Tensor:
@@ -184,13 +192,22 @@ class NumpyStepper:
 
     def head(self, skip: np.ndarray, z: np.ndarray | None = None, traj: np.ndarray | None = None) -> np.ndarray:
         """``CCNet.head`` on numpy arrays (``skip`` is overwritten)."""
+        plain = skip.copy() if z is not None and self.cfg.traj_without_z else None
         if z is not None and self.z_w is not None:
             skip += np.asarray(z, np.float32) @ self.z_w
+        out = self._decode(skip, traj, slice(None))
+        if plain is not None:  # c^d from the skip sum alone (CCNet.head)
+            at = self.cfg.output_slices["traj_mean"].start
+            out[:, at:] = self._decode(plain, traj, slice(at, None))
+        return out
+
+    def _decode(self, skip: np.ndarray, traj, columns: slice) -> np.ndarray:
+        """The decoder's ``columns`` of the raw output (``skip`` is overwritten by its ReLU)."""
         np.maximum(skip, 0, out=skip)
-        out = skip @ self.dec_w
-        out += self.dec_b
+        out = skip @ self.dec_w[:, columns]
+        out += self.dec_b[columns]
         if self.phase_w is not None:
-            out += phase_basis(skip, np.asarray(traj, np.float32)[:, -2:], self.cfg.phase_harmonics) @ self.phase_w
+            out += phase_basis(skip, np.asarray(traj, np.float32)[:, -2:], self.cfg.phase_harmonics) @ self.phase_w[:, columns]
         return out
 
     def trunk_step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:

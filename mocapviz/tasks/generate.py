@@ -31,7 +31,7 @@ from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, Normaliser, 
 from mocapviz.features.phase import on_circle, paced_phase
 from mocapviz.heading import from_heading_frame_xz, to_heading_frame_xz
 from mocapviz.ik import remove_foot_sliding
-from mocapviz.models.ccnet import CCNet
+from mocapviz.models.ccnet import CCNet, ar_prior
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
 
@@ -93,6 +93,7 @@ class Generator:
             raise ValueError(f"phase_source must be 'seed_pace' or 'network', got {phase_source!r}")
         self.phase_source = phase_source
         self._noise = None
+        self._z_past = []
         self.rng = np.random.default_rng(seed)
         self.cfg = model.cfg
         self.layout = FeatureLayout.of_model(self.cfg)
@@ -132,18 +133,32 @@ class Generator:
         if not self.latent:
             return self._plain_step(x, c)
         skip = self._trunk(x, c)
-        if t % self.cfg.latent_hold == 0:  # a new z every latent_hold frames (CCNetConfig.latent_hold)
-            self._z = self._latent(skip)
-        return self._head(skip, self._z, c)
+        k = self.cfg.latent_hold
+        if t % k == 0:  # a new knot of z every latent_hold frames (CCNetConfig.latent_hold)
+            # blended (latent_lerp): frames t..t+k-1 lie between this knot and the next, so the
+            # next is drawn now (the knot prior does not depend on the skip sum: no learned prior)
+            for _ in range(2 if self.cfg.latent_lerp and not self._z_past else 1):
+                self._z_past = [self._latent(skip)] + self._z_past[:max(self.cfg.latent_ar_order, 2) - 1]
+        if self.cfg.latent_lerp:
+            a = np.float32((t % k) / k)
+            z = (1 - a) * self._z_past[1] + a * self._z_past[0]
+        else:
+            z = self._z_past[0]
+        return self._head(skip, z, c)
 
     def _latent(self, skip) -> np.ndarray:
         """z of a latent model for the next frame, from its prior given the past (N(0, I) unless
-        learned): the prior's mean, or a draw from it with the spread scaled by ``temperature``
+        learned, or AR given the last z's: CCNetConfig.latent_ar): the prior's mean, or a draw from it with the spread scaled by ``temperature``
         when sampling. The frame is then the decoder's mean: the variation comes from z, not
         from per-frame Gaussian noise on the frame."""
+        rho = self.cfg.latent_ar
         if self.cfg.learned_prior:
             with torch.no_grad():
                 mean, logvar = (t.numpy() for t in self.model.prior_of(torch.as_tensor(skip)))
+        elif rho and self._z_past:  # the AR prior given the last z's (CCNet.prior_of), in numpy
+            mean, logvar = ar_prior(self._z_past, rho, self.cfg.latent_ar_order)
+            mean = np.asarray(mean, dtype=np.float32)
+            logvar = np.full_like(mean, logvar)
         else:  # N(0, I) (CCNet.prior_of) without a torch call per frame
             mean = logvar = np.zeros((len(skip), self.latent), dtype=np.float32)
         if not self.sample:
@@ -186,7 +201,8 @@ class Generator:
         cur_type = types[:, 0] if per_frame_types else types
         self.stepper.reset()
         self.raw_outputs = []
-        self._noise = self._z = None
+        self._noise = None
+        self._z_past = []  # the last z's, newest first (an AR prior's past: CCNetConfig.latent_ar)
         set_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
             if self.backend == "torch" else self.stepper.set_static
         set_static(skel_n, cur_type)
