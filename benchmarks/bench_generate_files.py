@@ -1,6 +1,6 @@
 """What the ``generate`` command makes of motion files: issue 9's pose-level quality of its output.
 
-    .venv/bin/python benchmarks/bench_generate_files.py [--model ccnet_phase] [--seconds 60] [--sample]
+    .venv/bin/python benchmarks/bench_generate_files.py [--model ccnet_phase_lerp] [--seconds 60] [--sample]
         [--temperature 1] [FILE.bvh:TYPE ...]
 
 Each file is continued exactly as ``mocapviz generate --seed FILE --type TYPE --seconds S --no-ik``
@@ -46,7 +46,7 @@ def file_quality(path, motion_type: str, model, norm, meta, refs: References, se
 def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("files", nargs="*", help="FILE.bvh:TYPE (default: Bandai and CMU walks and runs)")
-    p.add_argument("--model", default="ccnet_phase")
+    p.add_argument("--model", default="ccnet_phase_lerp")
     p.add_argument("--seconds", type=float, default=60.0)
     p.add_argument("--sample", action="store_true")
     p.add_argument("--temperature", type=float, default=1.0)

@@ -23,7 +23,7 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("generate", help="continue a BVH (or ASF/AMC) seed with a trained model, write BVH",
                        description="Continue your own motion file with CCNet: the output BVH holds the seed "
                                    "frames, then the generated ones, at 60 fps on the seed's own skeleton.")
-    p.add_argument("--model", default="ccnet_phase",
+    p.add_argument("--model", default="ccnet_phase_lerp",
                    help="a .safetensors checkpoint, or a model name looked up in $MOCAPVIZ_ZOO (mocapviz.zoo) and in "
                         "models/zoo/ of the current folder and its parents (default: %(default)s)")
     p.add_argument("--seed", required=True, help="the seed motion: a .bvh file, or an .amc file with --asf")
@@ -41,10 +41,12 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--path", help="JSON list of [x, z] ground points in metres, relative to where the seed "
                                   "ends (world axes), resampled to one per generated frame")
     mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--sample", dest="sample", action="store_true", help="sample each frame from the Gaussian")
+    mode.add_argument("--sample", dest="sample", action="store_true",
+                      help="sample: draw the model's latent z from its prior (a latent model, such as the default), "
+                           "or each frame from the predicted Gaussian")
     mode.add_argument("--mean", dest="sample", action="store_false", help="take its mean (default)")
     p.add_argument("--temperature", type=float, default=1.0, metavar="T",
-                   help="with --sample, draw from N(mean, (T sigma)^2): 1 is the predicted Gaussian (default: %(default)s)")
+                   help="with --sample, scale the spread of the draws by T: 1 is the model's own (default: %(default)s)")
     p.add_argument("--noise-correlation", type=float, default=0.0, metavar="RHO",
                    help="with --sample, the draws' correlation from one frame to the next (0: independent, the "
                         "paper's; every frame stays a draw of its predicted PDF; default: %(default)s)")

@@ -216,13 +216,16 @@ print(pd.DataFrame({k: {"windows": len(p), **evaluate(model, data, p)} for k, p 
 # real ones (section 5 explains both); the film strips show seconds 15-17.
 
 # %% [markdown]
-# The generation sections use **`ccnet_phase`** (the `phase` config: the default network plus a
-# local motion phase in its control and a phase-functioned decoder, section 5d; `models/README.md`),
-# the committed model whose validation seeds move best; section 5 also prints the mean-output
-# results of `ccnet_default` and `ccnet_wide` (C = 96, trained on its own predictions) beside it.
+# The generation sections use **`ccnet_phase_lerp`** (the `phase_lerp` config: the default network
+# plus a local motion phase in its control and a phase-functioned decoder, section 5d, and a latent
+# $z$ blended between knots 10 frames apart, section 5e; `models/README.md`), the committed model
+# whose validation seeds move best, with the mean output and sampled; section 5 also prints the
+# results of `ccnet_default`, `ccnet_wide` (C = 96, trained on its own predictions) and
+# `ccnet_phase` (a new $z$ every frame) beside it.
 
 # %%
-gen_model, gen_norm, _ = zoo.load("ccnet_phase", retrain_if_missing=False)
+gen_model, gen_norm, _ = zoo.load("ccnet_phase_lerp", retrain_if_missing=False)
+phase_model, phase_norm, _ = zoo.load("ccnet_phase", retrain_if_missing=False)
 wide_model, wide_norm, _ = zoo.load("ccnet_wide", retrain_if_missing=False)
 SECONDS = 20
 walk_take = ds.clips.iloc[locomotion_seeds(ds)[0]]["clip"]
@@ -301,10 +304,15 @@ for label, g in generated.items():
 secs = 20 if QUICK else 60
 quality = {mode: generation_quality(gen_model, gen_norm, ds, secs, sample=mode == "sample", banks=banks)
            for mode in ("mean", "sample")}
-for name, (m, nm) in {"ccnet_default": (model, norm), "ccnet_wide": (wide_model, wide_norm)}.items():
-    other = generation_quality(m, nm, ds, secs, sample=False, banks=banks)["per_clip"]
-    print(f"{name}, mean output: {sum(map(moves_like_real, other.values()))} of {len(other)} seeds move like the "
-          f"real clips, {sum(c['freezing_share'] > 0 for c in other.values())} freeze at times; ccnet_phase below")
+others = {("ccnet_default", "mean"): (model, norm), ("ccnet_wide", "mean"): (wide_model, wide_norm),
+          ("ccnet_phase", "mean"): (phase_model, phase_norm), ("ccnet_phase", "sample"): (phase_model, phase_norm)}
+other_quality = {}
+for (name, mode), (m, nm) in others.items():
+    other = other_quality[name, mode] = generation_quality(m, nm, ds, secs, sample=mode == "sample", banks=banks)["per_clip"]
+    jitter = [c["jitter_ratio"] for c in other.values()]
+    print(f"{name}, {mode} output: {sum(map(moves_like_real, other.values()))} of {len(other)} seeds move like the "
+          f"real clips, {sum(c['freezing_share'] > 0 for c in other.values())} freeze at times, jitter "
+          f"{min(jitter):.1f}-{max(jitter):.1f}x the real clips'; ccnet_phase_lerp below")
 for mode, q in quality.items():
     print(f"{mode} output, {len(q['per_clip'])} x {secs} s, seconds {secs // 2}-{secs} (min / median / max over the seeds):")
     for key, v in q["summary"].items():
@@ -354,7 +362,7 @@ show_figure(fig)
 
 # %%
 val_rows = np.flatnonzero((ds.clips.split == "val").values)[:12]
-compared = {"ccnet_default": (model, norm), "ccnet_wide": (wide_model, wide_norm), "ccnet_phase": (gen_model, gen_norm)}
+compared = {"ccnet_default": (model, norm), "ccnet_wide": (wide_model, wide_norm), "ccnet_phase_lerp": (gen_model, gen_norm)}
 one_step = {name: one_step_table(m, nm, ds, val_rows) for name, (m, nm) in compared.items()}
 print(pd.concat(one_step, axis=1).round(4).to_string())
 for name, t in one_step.items():
@@ -411,11 +419,11 @@ for name, t in drift.items():
           + ", ".join(f"{ratio[d]:.1f}x" for d in (1, 10, 71)))
 
 # %% [markdown]
-# ## 5d · The phase: why `ccnet_phase` keeps moving
+# ## 5d · The phase: why the phase models keep moving
 #
 # A network that regresses the mean of the next frame averages the continuations it cannot tell
 # apart. Once its own blurred output is its past, it cannot tell where in the gait cycle it is,
-# the average over the cycle is a still pose, and it freezes. `ccnet_phase` is told where it is:
+# the average over the cycle is a still pose, and it freezes. `ccnet_phase` and `ccnet_phase_lerp` are told where they are:
 # `mocapviz.features.phase` takes the first principal component of the clip's root-relative joint
 # positions (signed so that it moves the left foot forward), and its phase (the Hilbert phase
 # after a 0.4-4 Hz band-pass; for a seed shorter than 4 s, one fitted sinusoid) joins the control
@@ -464,6 +472,57 @@ for src, q in by_source.items():
           f"{sum(c['freezing_share'] > 0 for c in q.values())} freeze at times")
 
 # %% [markdown]
+# ## 5e · Sampling: a new $z$ every frame shakes, a blended $z$ moves
+#
+# Both phase models are conditional VAEs on the causal stack: in training a posterior that sees
+# the true next frames gives $z$, in generation the prior $\mathcal N(0, I)$ does (sampling draws
+# it; the mean output takes its mean, 0), and the frame written is the decoder's mean.
+# `ccnet_phase` has one $z$ per frame. Its posterior then carries each frame's own residual, and
+# independent draws from the prior turn into a kick every frame: jitter several times the real
+# clips'. `ccnet_phase_lerp` has one $z$ per *knot*, 10 frames apart, and a frame between two knots
+# sees their linear blend (`CCNetConfig.latent_lerp`, `mocapviz.models.ccnet.latent_weights`), in
+# training and in generation: a new draw bends $z$'s path but never jumps it. Its predicted
+# trajectory control (the free-running plan) is decoded without $z$ (`traj_without_z`): with
+# $z$ in it, the mean output's $z = 0$ planned an average pace, and the run slowed to a third.
+# Sampled jitter per seed, both models, against the issue's 3x bar:
+
+# %%
+sampled = {"ccnet_phase (z per frame)": other_quality["ccnet_phase", "sample"],
+           "ccnet_phase_lerp (blended z)": quality["sample"]["per_clip"]}
+fig, ax = plt.subplots(figsize=(10, 3.2))
+width = 0.4
+for k, (label, q) in enumerate(sampled.items()):
+    ax.bar(np.arange(len(q)) + (k - 0.5) * width, [c["jitter_ratio"] for c in q.values()], width, label=label)
+ax.axhline(3, color="crimson", ls="--", label="3x the real clips'")
+ax.set_yscale("log")
+ax.set_xticks(np.arange(len(q)), [c["type"] for c in q.values()], fontsize=8)
+ax.set_ylabel("sampled jitter / real")
+ax.legend(fontsize=7)
+fig.tight_layout()
+show_figure(fig)
+for label, q in sampled.items():
+    ok = sum(0.5 <= c["activity_ratio"] <= 2 and c["jitter_ratio"] <= 3 and c["freezing_share"] == 0 for c in q.values())
+    print(f"{label}: sampled, {ok} of {len(q)} seeds within the issue's bars (never frozen, activity 0.5-2x, "
+          f"jitter <= 3x); {sum(map(moves_like_real, q.values()))} pass moves_like_real")
+
+# %% [markdown]
+# Look, too: `ccnet_phase_lerp`'s sampled walk, run and waving seeds over the last 2 s of their
+# generation, each with its numbers (ratios to the real clips of its type):
+
+# %%
+shown = {}  # motion type -> its first sampled Bandai seed
+for clip, c in quality["sample"]["per_clip"].items():
+    if c["type"] in ("walk", "jog", "wave") and clip.startswith("dataset-") and c["type"] not in shown:
+        shown[c["type"]] = clip
+for kind, clip in shown.items():
+    c, m = quality["sample"]["per_clip"][clip], quality["sample"]["motions"][clip]
+    path = fig_dir / f"ccnet_sampled_{kind}_strip.png"
+    scene.frame_strip(m[-120:], path, n=8)
+    print(f"{clip} ({kind}), sampled: activity {c['activity_ratio']:.2f}x, jitter {c['jitter_ratio']:.2f}x, "
+          f"pose distance {c['pose_distance_ratio']:.2f}x, root speed {c['root_speed_ratio']:.2f}x")
+    display(Image(filename=str(path)))
+
+# %% [markdown]
 # ## 6 · How this compares with the paper
 #
 # * **Data.** The paper trains on 486k frames of 12 subjects with long, mixed recordings. Dataset
@@ -474,14 +533,15 @@ for src, q in by_source.items():
 #   the paper's 2000 epochs on a GPU.
 # * **Generation.** The paper generates "more than 20,000 frames" of motion that does not freeze.
 #   Without a phase, ours froze on most seeds with the mean output (section 5 prints
-#   `ccnet_default`'s and `ccnet_wide`'s counts); section 5d prints `ccnet_phase`'s with the phase
+#   `ccnet_default`'s and `ccnet_wide`'s counts); section 5d prints `ccnet_phase_lerp`'s with the phase
 #   fed either way. What the numbers do not show, the film strips do: the held-out HDM05 subject's
 #   body keeps moving, but in poses no jogger holds (in section 4's strip one leg stays stretched
 #   out behind it), which its pose distance in section 5 does not flag, and it jogs and hops
-#   nearly in place (root speed). `ccnet_phase` samples $z$ from its prior and writes the
-#   decoder's mean, which is far less noisy than sampling the frame from the predicted Gaussian
-#   (our $\sigma$ is far above a real frame's change, section 5b), but still jitters more than
-#   real motion on most seeds (section 5).
+#   nearly in place (root speed). Sampling draws $z$ and writes the decoder's mean, which is far
+#   less noisy than sampling the frame from the predicted Gaussian (our $\sigma$ is far above a
+#   real frame's change, section 5b); with a $z$ per frame (`ccnet_phase`) it still jitters
+#   several times more than real motion, with a blended $z$ (`ccnet_phase_lerp`) not on most
+#   seeds (section 5e prints which).
 #   Issue 9 records what else we tried: a residual
 #   mean (on every channel it drifts without bound; on the rotations and positions only it never
 #   freezes but tumbles through impossible poses, 6-26x the real pose distance; a leak,

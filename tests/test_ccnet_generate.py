@@ -12,7 +12,8 @@ from mocapviz.features.motion_types import one_hot
 from mocapviz.ik import foot_joints, remove_foot_sliding
 from mocapviz import metrics
 from mocapviz.metrics import foot_sliding
-from mocapviz.models.ccnet import CCNet, ar_prior
+from mocapviz.tasks.generation_quality import locomotion_seeds, real_reference
+from mocapviz.models.ccnet import CCNet
 from mocapviz.models.steppers import CCNetStepper, NumpyStepper
 from mocapviz.tasks.generate import Generator
 
@@ -106,6 +107,10 @@ FROZEN_DEFAULT = pytest.mark.xfail(strict=True, reason="issue 9: ccnet_default (
         strict=True, reason="issue 9: ccnet_phase keeps the held-out subject's jog moving (never frozen), but "
                             "nearly in place: 0.60 m/s over the last 5 s against its clip's 1.64")),
     ("ccnet_phase", "91_02"),
+    pytest.param("ccnet_phase_lerp", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=pytest.mark.xfail(
+        strict=True, reason="issue 9: ccnet_phase_lerp keeps the held-out subject's jog from freezing, but it "
+                            "jogs nearly in place: 0.37 m/s over the last 5 s against its clip's 1.64")),
+    ("ccnet_phase_lerp", "91_02"),
 ])
 def test_generated_motion_keeps_moving(ds, name, clip):
     """10 s free-running (the network's own c^d) from a 1 s seed: the held-out subject jogging
@@ -223,30 +228,24 @@ def test_blended_latent_feeds_the_decoder_a_continuous_z(ds, committed):
     assert bend[~at_knot].max() < 1e-5 and bend[at_knot].min() > 1e-3
 
 
-@pytest.mark.parametrize("order, lag1", [(1, 0.8), (2, 2 * 0.8 / (1 + 0.64))])
-def test_ar_prior_draws_continue_the_last_z(committed, order, lag1):
-    """With CCNetConfig.latent_ar rho the generator's z is the prior's AR process: unit
-    variance, lag-one correlation rho (order 1) or 2 rho / (1 + rho^2) (order 2, whose
-    frame-to-frame changes are themselves correlated); a temperature scales the innovations; the
-    mean output's z is 0 throughout."""
+def test_ar_prior_draws_continue_the_last_z(committed):
+    """With CCNetConfig.latent_ar rho the generator's z is the prior's AR(1) process: unit
+    variance, lag-one correlation rho; a temperature scales the innovations; the mean output's z
+    is 0 throughout."""
     model, norm, _ = committed
-    latent = CCNet(replace(model.cfg, latent=64, latent_ar=0.8, latent_ar_order=order)).eval()
+    latent = CCNet(replace(model.cfg, latent=64, latent_ar=0.8)).eval()
     g = Generator(latent, norm, sample=True, seed=2)
     skip = np.zeros((1, latent.cfg.skip_channels), dtype=np.float32)
     zs = []
-    for _ in range(6000):
+    for _ in range(3000):
         zs.append(g._latent(skip)[0])
-        g._z_past = [zs[-1][None]] + g._z_past[:order - 1]
+        g._z_past = [zs[-1][None]]
     z = np.stack(zs)                                                    # (frames, latent)
-    corr = lambda k: np.mean([np.corrcoef(z[:-k, j], z[k:, j])[0, 1] for j in range(z.shape[1])])  # noqa: E731
-    assert abs(z.std() - 1.0) < 0.05 and abs(corr(1) - lag1) < 0.02
-    d = np.diff(z, axis=0)
-    changes_corr = np.mean([np.corrcoef(d[:-1, j], d[1:, j])[0, 1] for j in range(z.shape[1])])
-    assert (changes_corr > 0.5) == (order == 2)                         # order 2: smooth paths
+    lag1 = np.mean([np.corrcoef(z[:-1, j], z[1:, j])[0, 1] for j in range(z.shape[1])])
+    assert abs(z.std() - 1.0) < 0.03 and abs(lag1 - 0.8) < 0.02
     g.temperature = 0.5
-    want = 0.5 * np.sqrt(1 - 0.64 if order == 1 else 0.36 ** 3 / 1.64)
-    steps = np.stack([g._latent(skip)[0] for _ in range(20)]) - ar_prior(g._z_past, 0.8, order)[0]
-    assert abs(steps.std() / want - 1) < 0.05                           # the innovations, scaled by T
+    steps = np.stack([g._latent(skip)[0] for _ in range(20)]) - 0.8 * zs[-1]
+    assert abs(steps.std() / (0.5 * 0.6) - 1) < 0.05                   # the innovations, scaled by T
     mean = Generator(latent, norm, sample=False)
     mean._z_past = [mean._latent(skip)]
     assert not mean._z_past[0].any() and not mean._latent(skip).any()
@@ -261,6 +260,33 @@ def test_correlated_draws_keep_unit_variance_with_the_asked_lag_one_correlation(
         assert abs(e.std() - 1.0) < 0.02 and abs(lag1 - rho) < 0.01
     with pytest.raises(ValueError, match="noise_correlation"):
         Generator(model, norm, noise_correlation=1.0)
+
+
+@pytest.fixture(scope="module")
+def real_walks(ds):
+    """(activity, jitter, root speed) of the dataset's real walks."""
+    return real_reference(ds, "walk")
+
+
+@pytest.mark.parametrize("name, shakes", [("ccnet_phase", True), ("ccnet_phase_lerp", False)])
+def test_sampled_motion_is_motion_not_noise(ds, real_walks, name, shakes):
+    """Sampled 10 s from a 1 s seed (CMU 91 walking, and the first held-out Bandai walk take),
+    seconds 5-10: ccnet_phase_lerp's poses change as much as the real walks' and jitter at most
+    3x as much (measured 1.2x and 1.6x); ccnet_phase, drawing an independent z every frame,
+    shakes at 7-9x, and the jitter measure says so."""
+    model, norm, _ = zoo.load(name, retrain_if_missing=False)
+    d = ds.with_vocabulary(model.cfg.n_types)
+    act, jit, _ = real_walks
+    for clip in ("91_02", d.clips.iloc[locomotion_seeds(d)[0]]["clip"]):
+        row, x, traj, skel, ti = seed_inputs(d, clip, 60)
+        r = d.clips.iloc[row]
+        gen = Generator(model, norm, sample=True).run(x, skel, one_hot([ti], model.cfg.n_types), 600, seed_traj=traj)
+        late = gen.motion(0, d.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False)[-300:]
+        local = metrics.local_positions(late.positions(), late.skeleton)
+        activity, jitter = metrics.activity(local, 60) / act, metrics.jitter(local, 60) / jit
+        assert (jitter > 3) == shakes, (clip, jitter)
+        if not shakes:
+            assert 0.5 <= activity <= 2, (clip, activity)
 
 
 def test_nan_seed_controls_are_the_networks_own(ds, committed):

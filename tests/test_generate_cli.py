@@ -332,7 +332,7 @@ def test_a_brisk_walk_seed_keeps_a_walkers_pace(data_dir):
     the seed's pace. With the seed's extrapolated c^d in its last second (before seed_controls)
     it broke into a run at 3.2 m/s."""
     from mocapviz import metrics
-    model, norm, meta = load_checkpoint(repo_zoo.committed_path("ccnet_phase"))
+    model, norm, meta = load_checkpoint(repo_zoo.committed_path("ccnet_phase_lerp"))
     seed = load_seed(data_dir / "bandai/dataset-1/dataset-1_walk_active_001.bvh")
     result = generate_from_seed(seed, model, norm, meta, types=["walk"], seconds=10.0, ik=False)
     m = result.rig.to_model(result.motion)

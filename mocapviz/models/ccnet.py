@@ -88,26 +88,13 @@ def latent_weights(n_frames: int, k: int, lerp: bool = False) -> np.ndarray:
     return np.clip(1.0 - np.abs(t[:, None] - knots[None]) / k, 0.0, None).astype(np.float32)
 
 
-def ar_prior(past: list, rho: float, order: int) -> tuple:
-    """The AR prior of CCNetConfig.latent_ar: mean and log-variance of z_t given ``past`` =
-    [z_{t-1}, z_{t-2}, ...] (as many as known, at most ``order``; torch or numpy arrays), for a
-    stationary Gaussian process with unit variance per channel.
-
-    Order 1: z_t = rho z_{t-1} + sqrt(1 - rho^2) e. Order 2: two AR(1) filters in series (a
-    critically damped process, whose path is smooth: its frame-to-frame change is itself
-    correlated), z_t = 2 rho z_{t-1} - rho^2 z_{t-2} + c e with c^2 = (1 - rho^2)^3 / (1 + rho^2);
-    its lag-one correlation is r = 2 rho / (1 + rho^2), so a second z given only the first is
-    N(r z_1, 1 - r^2). No past: N(0, 1)."""
-    if not past:
+def ar_prior(z_prev, rho: float) -> tuple:
+    """The AR(1) prior of CCNetConfig.latent_ar: mean and log-variance of z_t given the previous
+    z (torch or numpy array; None for a first z): N(rho z_prev, 1 - rho^2), which keeps every z
+    N(0, 1) on its own; N(0, 1) for a first z."""
+    if z_prev is None:
         return 0.0, 0.0
-    if order == 1:
-        coefs, var = (rho,), 1.0 - rho * rho
-    elif len(past) == 1:
-        r = 2 * rho / (1 + rho * rho)
-        coefs, var = (r,), 1.0 - r * r
-    else:
-        coefs, var = (2 * rho, -rho * rho), (1 - rho * rho) ** 3 / (1 + rho * rho)
-    return sum(a * z for a, z in zip(coefs, past)), math.log(var)
+    return rho * z_prev, math.log(1.0 - rho * rho)
 
 
 @register_model("ccnet")
@@ -146,7 +133,7 @@ class CCNet(nn.Module):
                            n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout,
                            residual=train_cfg.residual, residual_gain=train_cfg.residual_gain,
                            latent=train_cfg.latent, learned_prior=train_cfg.learned_prior, latent_hold=train_cfg.latent_hold,
-                           latent_ar=train_cfg.latent_ar, latent_ar_order=train_cfg.latent_ar_order,
+                           latent_ar=train_cfg.latent_ar,
                            latent_lerp=train_cfg.latent_lerp, traj_without_z=train_cfg.traj_without_z,
                            phase_harmonics=train_cfg.phase_harmonics,
                            residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
@@ -232,20 +219,16 @@ class CCNet(nn.Module):
 
     def prior_of(self, skip, z_past=None) -> tuple[torch.Tensor, torch.Tensor]:
         """p(z | past): its mean and log-variance (..., latent); N(0, I) without a learned prior.
-        With ``cfg.latent_ar``: the AR prior (:func:`ar_prior`) of each z of the sequence
-        ``z_past`` (B, N, latent) given the ones before it (None: N(0, I), a first z)."""
+        With ``cfg.latent_ar``: the AR(1) prior (:func:`ar_prior`) of each z of the sequence
+        ``z_past`` (B, N, latent) given the one before it (None: N(0, I))."""
         if self.cfg.learned_prior:
             return self._mean_logvar(self.prior(skip))
         zero = skip.new_zeros(skip.shape[:-1] + (self.cfg.latent,))
         if not self.cfg.latent_ar or z_past is None:
             return zero, zero
-        means, logvars = [], []
-        for t in range(z_past.shape[1]):  # a loop over blocks: the order's first z's have shorter pasts
-            m, lv = ar_prior([z_past[:, t - 1 - k] for k in range(min(t, self.cfg.latent_ar_order))],
-                             self.cfg.latent_ar, self.cfg.latent_ar_order)
-            means.append(zero[:, 0] + m)
-            logvars.append(zero[:, 0] + lv)
-        return torch.stack(means, 1), torch.stack(logvars, 1)
+        mean, logvar = ar_prior(z_past[:, :-1], self.cfg.latent_ar)
+        first = zero[:, :1]  # a window's first z has no past: N(0, I)
+        return torch.cat([first, mean], 1), torch.cat([first, zero[:, 1:] + logvar], 1)
 
     def _mean_logvar(self, p: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """A Gaussian's mean and log-variance from an MLP's (..., 2 latent) output; the

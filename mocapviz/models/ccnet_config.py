@@ -69,7 +69,9 @@ class CCNetConfig:
     # knots k frames apart (models.ccnet.latent_weights), in training and generation: z's path is
     # continuous, so a new draw is no jump. Why: held z made every block boundary a kick (P9's
     # sampled jitter still 1.2-19x the real clips'), and per-frame z, whatever its prior
-    # (latent_ar), carried each frame's residual, which sampling turns into shaking.
+    # (latent_ar), carried each frame's residual, which sampling turns into shaking. With knots
+    # 10 frames apart and traj_without_z (config phase_lerp, ccnet_phase_lerp): sampled jitter
+    # 0.41-2.2x the real clips' on 9 of the 10 test seeds (ccnet_phase: 2.7-28x). Off by default.
     latent_lerp: bool = False
     # traj_without_z: the predicted c^d (the free-running controller's plan: where the root will
     # be over the next second) is decoded from the skip sum without z, so it comes from the past
@@ -77,17 +79,15 @@ class CCNetConfig:
     # output's z = 0 planned an average pace: fed back as c^d, the run slowed to 0.95 m/s against
     # its 3.6 (2.58 with the clip's own c^d).
     traj_without_z: bool = False
-    # latent_ar rho: z's prior is a stationary AR process (models.ccnet.ar_prior; order
-    # latent_ar_order: 1, z_t ~ N(rho z_{t-1}, (1 - rho^2) I), or 2, two such filters in series,
-    # whose paths are smooth), one step per held block, in training (the KL of each z against the
-    # prior given the sampled z's before it) and in generation (each draw continues the last). Every z is still N(0, I) on its own; only consecutive ones are tied. Why: on real
-    # clips the posterior means of ccnet_phase's independent per-frame z are strongly correlated
-    # from frame to frame (lag-one autocorrelation 0.3-0.99 on the validation seeds), so the N(0, I)
-    # prior's independent draws are a kind of innovation the data never shows (sampled jitter
-    # 2.7-28x the real clips'), and correlating the draws at generation only (Generator's
-    # noise_correlation) is a push the network never saw persist. 0: independent draws.
+    # latent_ar rho: z's prior is a stationary AR(1) process, z_1 ~ N(0, I) and
+    # z_t ~ N(rho z_{t-1}, (1 - rho^2) I) (one step per knot), in training (the KL of each z
+    # against the prior given the sampled z before it) and in generation (each draw continues the
+    # last). Every z is still N(0, I) on its own. Why it was tried: on real clips the posterior
+    # means of ccnet_phase's per-frame z are correlated from frame to frame (lag one 0.3-0.99 on
+    # the validation seeds), unlike its N(0, I) prior's independent draws (sampled jitter 2.7-28x).
+    # It did not help (runs A95, A98 in models/README.md: 2.1-29x and 1.5-21x): z still carried
+    # each frame's residual, in steps the decoder scaled back up. 0: independent draws.
     latent_ar: float = 0.0
-    latent_ar_order: int = 1
     # phase: the last two channels of c^d are a local motion phase (sin, cos)
     # (:mod:`mocapviz.features.phase`), given as an input and predicted with c^d; generation turns
     # it on at the seed's pace, or feeds the predicted one back (Generator's phase_source; issue 9).
@@ -120,8 +120,6 @@ class CCNetConfig:
             raise ValueError(f"latent_hold must be >= 1, got {self.latent_hold}")
         if not 0.0 <= self.latent_ar < 1.0:
             raise ValueError(f"latent_ar must lie in [0, 1), got {self.latent_ar}")
-        if self.latent_ar_order not in (1, 2):
-            raise ValueError(f"latent_ar_order must be 1 or 2, got {self.latent_ar_order}")
         if self.latent_lerp and self.learned_prior:
             raise ValueError("latent_lerp draws the next knot ahead, which a learned prior (given the past) cannot")
         if self.latent_ar and self.learned_prior:

@@ -2,8 +2,9 @@
 
 Seed frames are fed through the network (teacher forcing), then each new frame is the mean of
 the predicted Gaussian (or a sample from it) with the predicted contact labels, fed back as the
-next input. A CCNet with a latent (``CCNetConfig.latent``) samples its z from the prior per frame
-instead and writes the decoder's mean (the prior's mean z for the mean output). The trajectory
+next input. A CCNet with a latent (``CCNetConfig.latent``) samples its z from the prior instead
+(per frame, or per knot every ``latent_hold`` frames, held or blended: ``latent_lerp``) and
+writes the decoder's mean (the prior's mean z for the mean output). The trajectory
 control c^d comes from one of:
 
 - ``traj``: an array of raw c^d per frame (e.g. taken from a clip; repeated cyclically);
@@ -138,7 +139,7 @@ class Generator:
             # blended (latent_lerp): frames t..t+k-1 lie between this knot and the next, so the
             # next is drawn now (the knot prior does not depend on the skip sum: no learned prior)
             for _ in range(2 if self.cfg.latent_lerp and not self._z_past else 1):
-                self._z_past = [self._latent(skip)] + self._z_past[:max(self.cfg.latent_ar_order, 2) - 1]
+                self._z_past = [self._latent(skip)] + self._z_past[:1]  # the knot and the one before
         if self.cfg.latent_lerp:
             a = np.float32((t % k) / k)
             z = (1 - a) * self._z_past[1] + a * self._z_past[0]
@@ -155,8 +156,8 @@ class Generator:
         if self.cfg.learned_prior:
             with torch.no_grad():
                 mean, logvar = (t.numpy() for t in self.model.prior_of(torch.as_tensor(skip)))
-        elif rho and self._z_past:  # the AR prior given the last z's (CCNet.prior_of), in numpy
-            mean, logvar = ar_prior(self._z_past, rho, self.cfg.latent_ar_order)
+        elif rho and self._z_past:  # the AR(1) prior given the last z (CCNet.prior_of), in numpy
+            mean, logvar = ar_prior(self._z_past[0], rho)
             mean = np.asarray(mean, dtype=np.float32)
             logvar = np.full_like(mean, logvar)
         else:  # N(0, I) (CCNet.prior_of) without a torch call per frame

@@ -183,6 +183,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     loss_fn = LOSSES[model.name]
     if cfg.rollout_from and not hasattr(model, "stepper"):
         raise ValueError(f"rollout_from needs a model with an incremental stepper (CCNet), not {cfg.model!r}")
+    if cfg.rollout_from and cfg.latent_hold > 1:  # rolled_out decodes the posterior of each frame
+        raise ValueError("rollout_from steps with a z per frame: it does not support latent_hold > 1")
     opt = cfg.make_optimizer(model.parameters())
     start = 0
     rows: list[dict] = []
