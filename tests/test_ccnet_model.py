@@ -344,19 +344,26 @@ def test_latent_posterior_sample_in_training_mean_in_eval():
     assert not ev["prior_mean"].any() and not ev["prior_logvar"].any()  # N(0, I)
 
 
+def knot_and_frame_posteriors(t: int, **kw):
+    """A latent net with knots (``kw``), the same weights with a z per frame, random inputs and
+    targets of ``t`` frames, and both nets' eval outputs on them."""
+    cfg, m = latent_net(**kw)
+    _, per_frame = latent_net()
+    per_frame.load_state_dict(m.state_dict())
+    x, skel, traj, types = inputs(cfg, t=t)
+    target = torch.randn_like(x)
+    with torch.no_grad():
+        return (cfg, m, (x, skel, traj, types), target, m(x, skel, traj, types, target_x=target),
+                per_frame(x, skel, traj, types, target_x=target))
+
+
 def test_held_latent_is_one_z_per_block_with_one_kl_per_block():
     """latent_hold k: the posterior's mean and log-variance are averaged over each block of k
     frames (the last may be shorter), the decoder sees that block's z on each of its frames, and
     the KL counts each z once, per frame of the window."""
     from mocapviz.training.losses import gaussian_kl
-    cfg, m = latent_net(latent_hold=3)
-    _, per_frame = latent_net()
-    per_frame.load_state_dict(m.state_dict())
-    x, skel, traj, types = inputs(cfg, t=20)
-    target = torch.randn_like(x)
+    cfg, m, (x, skel, traj, types), target, ev, frames = knot_and_frame_posteriors(20, latent_hold=3)
     with torch.no_grad():
-        ev = m(x, skel, traj, types, target_x=target)
-        frames = per_frame(x, skel, traj, types, target_x=target)
         by_z = m(x, skel, traj, types, z=ev["z_mean"].repeat_interleave(3, 1)[:, :20])["mean"]
     assert ev["z_mean"].shape == (2, 7, cfg.latent)                      # ceil(20 / 3) blocks
     torch.testing.assert_close(ev["z_mean"][:, 1], frames["z_mean"][:, 3:6].mean(1))
@@ -381,14 +388,7 @@ def test_latent_weights_hand_computed():
 def test_blended_latent_pools_the_posterior_with_the_hat_weights():
     """latent_lerp: a knot's posterior is the hat-weighted mean of the frames' posteriors, and the
     decoder sees the linear blend of the knots."""
-    cfg, m = latent_net(latent_hold=4, latent_lerp=True)
-    _, per_frame = latent_net()
-    per_frame.load_state_dict(m.state_dict())
-    x, skel, traj, types = inputs(cfg, t=10)
-    target = torch.randn_like(x)
-    with torch.no_grad():
-        ev = m(x, skel, traj, types, target_x=target)
-        frames = per_frame(x, skel, traj, types, target_x=target)
+    cfg, m, (x, skel, traj, types), target, ev, frames = knot_and_frame_posteriors(10, latent_hold=4, latent_lerp=True)
     zk, zf = ev["z_mean"], frames["z_mean"]
     assert zk.shape == (2, 4, cfg.latent)                                # knots at frames 0, 4, 8, 12
     torch.testing.assert_close(zk[:, 1], (zf[:, 1:8] * torch.tensor([.25, .5, .75, 1, .75, .5, .25])[:, None]).sum(1) / 4)
