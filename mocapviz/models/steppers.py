@@ -41,7 +41,7 @@ class _StepWeights:
 
 
 class CCNetStepper:
-    """Incremental CCNet: one frame per call, past block inputs kept in per-block rings.
+    """Incremental CCNet: one frame per call, past block inputs kept in a ring buffer (hist).
 
     Equal to ``CCNet.forward`` (eval mode) on the whole sequence, to float rounding. The gated
     unit uses sigmoid(b) = (1 + tanh(b/2)) / 2 so one tanh serves both halves (the gate half
@@ -121,7 +121,7 @@ class CCNetStepper:
         if z is not None and self.w.z_w is not None:
             skip = torch.addmm(skip, z.to(self.dtype), self.w.z_w)
         out = self._decode(skip, traj, slice(None))
-        if z is not None and self.cfg.traj_without_z:  # c^d from the skip sum alone (CCNet.head)
+        if z is not None and self.cfg.traj_without_z and bool(z.any()):  # c^d from the skip sum alone (CCNet.head; z = 0 adds nothing)
             at = self.cfg.output_slices["traj_mean"].start
             out[:, at:] = self._decode(plain, traj, slice(at, None))
         return out
@@ -178,9 +178,13 @@ class NumpyStepper:
 
     def reset(self):
         c, dil = self.cfg.channels, self.cfg.dilations
-        zero = np.zeros((self.batch, c), dtype=np.float32)
-        self.rings = [[zero] * d for d in dil]
-        self._g = np.zeros((self.batch, len(dil) * c), dtype=np.float32)
+        nb, r = len(dil), max(dil)
+        # hist[t % R, i] holds block i's input at frame t; block i reads frame t - d_i (one
+        # fancy-indexed read per frame, as CCNetStepper: not a stack of per-block rings)
+        self.hist = np.zeros((r, nb, self.batch, c), dtype=np.float32)
+        self._past_index = [np.array([(p - d) % r for d in dil]) for p in range(r)]
+        self._blocks = np.arange(nb)
+        self._g = np.zeros((self.batch, nb * c), dtype=np.float32)
         self.t = 0
 
     def set_static(self, skel, types):
@@ -192,11 +196,13 @@ class NumpyStepper:
 
     def head(self, skip: np.ndarray, z: np.ndarray | None = None, traj: np.ndarray | None = None) -> np.ndarray:
         """``CCNet.head`` on numpy arrays (``skip`` is overwritten)."""
-        plain = skip.copy() if z is not None and self.cfg.traj_without_z else None
+        # c^d from the skip sum alone (CCNet.head); z = 0 (the mean output) adds nothing to the skip
+        # sum, so then the full decode's c^d columns are that already
+        plain = skip.copy() if z is not None and self.cfg.traj_without_z and np.any(z) else None
         if z is not None and self.z_w is not None:
             skip += np.asarray(z, np.float32) @ self.z_w
         out = self._decode(skip, traj, slice(None))
-        if plain is not None:  # c^d from the skip sum alone (CCNet.head)
+        if plain is not None:
             at = self.cfg.output_slices["traj_mean"].start
             out[:, at:] = self._decode(plain, traj, slice(at, None))
         return out
@@ -212,14 +218,15 @@ class NumpyStepper:
 
     def trunk_step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:
         """Advance one frame; returns the skip sum (B, S) before the decoder's ReLU."""
-        c, nb, t = self.cfg.channels, len(self.rings), self.t
+        c, nb, t = self.cfg.channels, len(self._blocks), self.t
         h = x @ self.enc_w
         h += self.enc_b
         np.maximum(h, 0, out=h)
         cz = traj @ self.ctrl_traj_w
         cz += self._static
-        slots = [t % len(r) for r in self.rings]
-        past = np.stack([r[s] for r, s in zip(self.rings, slots)])          # (nb, B, C)
+        r = self.hist.shape[0]
+        past = self.hist[self._past_index[t % r], self._blocks]             # (nb, B, C), a copy
+        cur = self.hist[t % r]                     # block inputs of this frame are written here
         pre = np.matmul(past, self.past_w)                                  # (nb, B, 2C)
         pre += cz.reshape(self.batch, nb, 2 * c).transpose(1, 0, 2)
         g_all = self._g
@@ -231,7 +238,7 @@ class NumpyStepper:
             g = g_all[:, i * c:(i + 1) * c]
             np.multiply(a, z[:, c:], out=g)
             g += a
-            self.rings[i][slots[i]] = h
+            cur[i] = h
             h = h + g @ self.res_w[i]
         self.t = t + 1
         skip = g_all @ self.skip_w
