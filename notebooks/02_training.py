@@ -62,6 +62,7 @@ from mocapviz.tasks.generation_quality import (
     pose_distance,
     real_pose_distance,
     real_reference,
+    within_issue_bar,
 )
 from mocapviz.tasks.one_step import linear_code_residual, one_step_table
 from mocapviz.training.config import TRAIN_CONFIGS
@@ -501,7 +502,7 @@ ax.legend(fontsize=7)
 fig.tight_layout()
 show_figure(fig)
 for label, q in sampled.items():
-    ok = sum(0.5 <= c["activity_ratio"] <= 2 and c["jitter_ratio"] <= 3 and c["freezing_share"] == 0 for c in q.values())
+    ok = sum(map(within_issue_bar, q.values()))
     print(f"{label}: sampled, {ok} of {len(q)} seeds within the issue's bars (never frozen, activity 0.5-2x, "
           f"jitter <= 3x); {sum(map(moves_like_real, q.values()))} pass moves_like_real")
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from mocapviz.tasks.generation_quality import (LOCOMOTION_SEEDS, SEED_FRAMES, TypeBanks, locomotion_seeds,
-                                               moves_like_real, pose_bank, pose_distance, real_pose_distance)
+                                               moves_like_real, pose_bank, pose_distance, real_pose_distance,
+                                               within_issue_bar)
 
 
 @pytest.fixture(scope="module")
@@ -40,6 +41,18 @@ def test_moves_like_real_by_hand():
     assert not moves_like_real({**walk, "root_speed_ratio": 2.7, "root_speed_difference": 1.9})
     assert not moves_like_real({**walk, "root_speed_ratio": 0.3, "root_speed_difference": -0.8})
     assert moves_like_real({**walk, "root_speed_ratio": 0.33, "root_speed_difference": -0.02})
+
+
+def test_issue_bar_by_hand():
+    """The issue's own bar reads freezing, activity and jitter only: poses far from real ones or a
+    gliding root pass it, and fail moves_like_real."""
+    walk = dict(freezing_share=0.0, activity_ratio=1.0, jitter_ratio=1.0, pose_distance_ratio=1.0,
+                root_speed_ratio=1.0, root_speed_difference=0.0)
+    assert within_issue_bar(walk)
+    for key, bad in (("freezing_share", 0.1), ("activity_ratio", 0.49), ("activity_ratio", 2.1), ("jitter_ratio", 3.01)):
+        assert not within_issue_bar({**walk, key: bad}), key
+    odd = {**walk, "pose_distance_ratio": 6.0, "root_speed_ratio": 2.7, "root_speed_difference": 1.9}
+    assert within_issue_bar(odd) and not moves_like_real(odd)
 
 
 def test_lying_down_is_far_from_the_walk_poses_but_near_some_training_pose(ds):

@@ -90,10 +90,8 @@ def latent_weights(n_frames: int, k: int, lerp: bool = False) -> np.ndarray:
 
 def ar_prior(z_prev, rho: float) -> tuple:
     """The AR(1) prior of CCNetConfig.latent_ar: mean and log-variance of z_t given the previous
-    z (torch or numpy array; None for a first z): N(rho z_prev, 1 - rho^2), which keeps every z
-    N(0, 1) on its own; N(0, 1) for a first z."""
-    if z_prev is None:
-        return 0.0, 0.0
+    z (torch or numpy array), N(rho z_prev, 1 - rho^2), which keeps every z N(0, 1) on its own (a
+    first z, with no previous, is N(0, 1): the callers')."""
     return rho * z_prev, math.log(1.0 - rho * rho)
 
 

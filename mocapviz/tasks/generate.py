@@ -148,9 +148,9 @@ class Generator:
         return self._head(skip, z, c)
 
     def _latent(self, skip) -> np.ndarray:
-        """z of a latent model for the next frame, from its prior given the past (N(0, I) unless
-        learned, or AR given the last z's: CCNetConfig.latent_ar): the prior's mean, or a draw from it with the spread scaled by ``temperature``
-        when sampling. The frame is then the decoder's mean: the variation comes from z, not
+        """z of a latent model for the next knot, from its prior given the past (N(0, I) unless
+        learned, or AR(1) given the last knot: CCNetConfig.latent_ar): the prior's mean, or a draw
+        from it with the spread scaled by ``temperature`` when sampling. The frame is then the decoder's mean: the variation comes from z, not
         from per-frame Gaussian noise on the frame."""
         rho = self.cfg.latent_ar
         if self.cfg.learned_prior:
@@ -203,7 +203,7 @@ class Generator:
         self.stepper.reset()
         self.raw_outputs = []
         self._noise = None
-        self._z_past = []  # the last z's, newest first (an AR prior's past: CCNetConfig.latent_ar)
+        self._z_past = []  # the last two knots of z, newest first (blended between; an AR prior's past)
         set_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
             if self.backend == "torch" else self.stepper.set_static
         set_static(skel_n, cur_type)

@@ -92,14 +92,18 @@ SEED_FRAMES = 48
 ROOT_SPEED_TOLERANCE = 0.1
 
 
+def within_issue_bar(clip: dict) -> bool:
+    """Issue 9's "Done when" for one seed (a ``per_clip`` entry of :func:`generation_quality`):
+    never frozen, activity 0.5-2x and jitter at most 3x the real clips'."""
+    return bool(clip["freezing_share"] == 0 and 0.5 <= clip["activity_ratio"] <= 2 and clip["jitter_ratio"] <= 3)
+
+
 def moves_like_real(clip: dict) -> bool:
-    """Issue 9's bar for one seed's quality (a ``per_clip`` entry of :func:`generation_quality`):
-    never frozen, activity 0.5-2x and jitter at most 3x the real clips', poses no further
-    than 3x the held-out real clips' from the training poses, and the root's ground speed within
-    0.5-2x the real clips' (or within :data:`ROOT_SPEED_TOLERANCE` of it)."""
+    """Our stricter bar: :func:`within_issue_bar`, poses no further than 3x the held-out real
+    clips' from the training poses, and the root's ground speed within 0.5-2x the real clips'
+    (or within :data:`ROOT_SPEED_TOLERANCE` of it)."""
     speed_ok = 0.5 <= clip["root_speed_ratio"] <= 2 or abs(clip["root_speed_difference"]) <= ROOT_SPEED_TOLERANCE
-    return bool(clip["freezing_share"] == 0 and 0.5 <= clip["activity_ratio"] <= 2
-                and clip["jitter_ratio"] <= 3 and clip["pose_distance_ratio"] <= 3 and speed_ok)
+    return within_issue_bar(clip) and clip["pose_distance_ratio"] <= 3 and speed_ok
 
 
 def pose_bank(ds, motion_type: str | None = None, every: int = 8) -> metrics.PoseBank:
