@@ -73,17 +73,29 @@ def contact_segments(labels: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
-def foot_lock_targets(ankle: np.ndarray, contact: np.ndarray, blend: int = 5) -> np.ndarray:
-    """Ankle targets (F, 3): held on the ground plane (X, Z) where each contact run starts, the
-    height left free (the heel may rise while the toes still touch), eased back to the free
-    trajectory over ``blend`` frames after the run ends."""
+# A held foot whose free trajectory drifts farther than this on the ground (m) is put down again
+# where it is. In real clips the largest drift within a contact run is 0.06 m at the median and
+# 0.14 m at the 99th percentile (300 dataset v4 clips, 2,808 runs; max 0.32), so real feet hardly
+# ever re-plant. Why: a generated root that glides while its feet are labelled in contact (issue 9:
+# the waving seed, 6.8x the real ground speed, both feet in contact throughout) pinned the feet
+# where the run began, and the IK stretched the legs out level behind a body sitting in the air.
+MAX_SLIP = 0.2
+
+
+def foot_lock_targets(ankle: np.ndarray, contact: np.ndarray, blend: int = 5, max_slip: float = MAX_SLIP) -> np.ndarray:
+    """Ankle targets (F, 3): held on the ground plane (X, Z) where each contact run starts (and
+    again wherever the free ankle has drifted more than ``max_slip`` from the hold), the height
+    left free (the heel may rise while the toes still touch), eased back to the free trajectory
+    over ``blend`` frames after the run ends."""
     target = ankle.copy()
     n = len(ankle)
     for s, e in contact_segments(contact):
-        locked = np.broadcast_to(ankle[s], (e - s, 3)).copy()
-        locked[:, 1] = ankle[s:e, 1]
-        target[s:e] = locked
-        locked = locked[-1]
+        hold = ankle[s, [0, 2]]
+        for t in range(s, e):
+            if np.hypot(*(ankle[t, [0, 2]] - hold)) > max_slip:
+                hold = ankle[t, [0, 2]]
+            target[t, [0, 2]] = hold
+        locked = target[e - 1]
         for k in range(1, blend + 1):
             if e + k - 1 >= n or contact[min(e + k - 1, n - 1)]:
                 break

@@ -131,6 +131,22 @@ def test_generated_motion_keeps_moving(ds, name, clip):
     assert 0.6 < m.root_positions[60:, 1].mean() / clip_root[:, 1].mean() < 1.3  # upright, not sinking
 
 
+def test_foot_lock_puts_a_carried_foot_down_again():
+    """A foot labelled in contact while the body carries it along at 0.9 m/s (a gliding generated
+    root) is held where it is, and put down again each time it has drifted MAX_SLIP from the
+    hold: the legs are never pulled level behind the body. A foot that stays near its hold keeps
+    one hold for the whole run, as before."""
+    from mocapviz.ik import MAX_SLIP, foot_lock_targets
+    t = np.arange(120) / 60.0
+    carried = np.stack([t * 0.9, np.full_like(t, 0.1), np.zeros_like(t)], 1)   # 0.9 m/s along X
+    target = foot_lock_targets(carried, np.ones(120, dtype=bool))
+    lag = carried[:, 0] - target[:, 0]
+    assert lag.max() <= MAX_SLIP and lag.min() >= 0 and len(np.unique(target[:, 0])) == 9  # 1.8 m in holds of 14 frames
+    np.testing.assert_array_equal(target[:, 1], carried[:, 1])              # the height stays free
+    still = carried * [0.05, 1, 1]                                           # 0.09 m in the run: one hold
+    np.testing.assert_array_equal(foot_lock_targets(still, np.ones(120, dtype=bool))[:, 0], 0.0)
+
+
 def test_foot_ik_removes_sliding_and_keeps_bones(ds):
     row = ds.clip_row("35_01")
     m = ds.clip_motion(row)
