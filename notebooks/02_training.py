@@ -536,9 +536,11 @@ for kind, clip in shown.items():
 #   Without a phase, ours froze on most seeds with the mean output (section 5 prints
 #   `ccnet_default`'s and `ccnet_wide`'s counts); section 5d prints `ccnet_phase_lerp`'s with the phase
 #   fed either way. What the numbers do not show, the film strips do: the held-out HDM05 subject's
-#   body keeps moving, but in poses no jogger holds (in section 4's strip one leg stays stretched
-#   out behind it), which its pose distance in section 5 does not flag, and it jogs and hops
-#   nearly in place (root speed). Sampling draws $z$ and writes the decoder's mean, which is far
+#   body keeps moving, its legs stepping under a body that leans back with the knees bent
+#   forward, and it jogs and hops nearly in place (root speed). (Until the foot IK re-planted a
+#   held foot that drifts more than `mocapviz.ik.MAX_SLIP`, the IK pinned the feet of a body
+#   gliding with both feet labelled in contact and stretched its legs out level behind it; the
+#   raw network output never did that.) Sampling draws $z$ and writes the decoder's mean, which is far
 #   less noisy than sampling the frame from the predicted Gaussian (our $\sigma$ is far above a
 #   real frame's change, section 5b); with a $z$ per frame (`ccnet_phase`) it still jitters
 #   several times more than real motion, with a blended $z$ (`ccnet_phase_lerp`) not on most
