@@ -1,5 +1,6 @@
 """CCNet network: causality, receptive field (Eq. 3), incremental = full, NLL by hand, checkpoints."""
 
+import json
 import math
 
 import numpy as np
@@ -100,6 +101,65 @@ def test_incremental_equals_full_recompute(dilations, batch):
     assert torch.allclose(keep[..., :n], raw_full[..., :n], atol=1e-5)
     assert torch.allclose(keep[..., n:2 * n][unclipped], s_full[unclipped], atol=1e-5)
     assert torch.allclose(keep[..., 2 * n:], raw_full[..., 2 * n:], atol=1e-5)
+
+
+def test_height_anchor_is_the_plain_network_on_the_height_less_the_bodys():
+    """height_anchor (a, b): the network sees the root height less o = a c^s_0 + b and its mean
+    adds o back; the same weights without the anchor, given the shifted height, differ from it
+    by exactly o on the height's mean and nowhere else."""
+    plain, anchored = net(small_cfg()), CCNet(small_cfg(height_anchor=(0.5, -0.2))).eval()
+    anchored.load_state_dict(plain.state_dict())
+    x, skel, traj, types = inputs(small_cfg())
+    h = small_cfg().height_channel
+    assert h == small_cfg().n_continuous - 1
+    o = 0.5 * skel[:, 0] - 0.2                                  # (B,)
+    shifted = x.clone()
+    shifted[..., h] -= o[:, None]
+    with torch.no_grad():
+        a, b = plain(shifted, skel, traj, types), anchored(x, skel, traj, types)
+    want = a["mean"].clone()
+    want[..., h] += o[:, None]
+    torch.testing.assert_close(b["mean"], want)
+    assert all(torch.equal(a[k], b[k]) for k in ("sigma", "contact_logits", "traj_mean", "traj_sigma"))
+    assert not torch.allclose(a["mean"], plain(x, skel, traj, types)["mean"], atol=1e-3)  # the shift matters
+    old = json.loads(small_cfg(height_anchor=(0.5, -0.2)).to_json())
+    del old["height_anchor"]                                   # a checkpoint from before the option
+    assert CCNetConfig.from_json(json.dumps(old)).height_anchor == ()
+    with pytest.raises(ValueError, match="anchored"):
+        small_cfg(height_anchor=(1.0, 0.0), residual=True)
+
+
+@pytest.mark.parametrize("backend", ["torch", "numpy"])
+def test_height_anchor_incremental_equals_full_recompute(backend):
+    """The steppers fold the anchor into per-character biases: still the full forward."""
+    cfg = small_cfg(height_anchor=(0.7, 0.3), latent=4, traj_without_z=True)
+    m = net(cfg)
+    x, skel, traj, types = inputs(cfg, b=2, t=50)
+    z = torch.randn(2, 50, cfg.latent, generator=torch.Generator().manual_seed(3))
+    with torch.no_grad():
+        full = m.head(m.trunk(x, skel, traj, types), z, traj, skel)
+    st = m.stepper(2, backend)
+    conv = (lambda a: a) if backend == "torch" else (lambda a: a.numpy())
+    st.set_static(conv(skel), conv(types))
+    with torch.inference_mode():
+        steps = [torch.as_tensor(st.step(conv(x[:, t]), conv(traj[:, t]), conv(z[:, t]))) for t in range(50)]
+    assert torch.allclose(torch.stack(steps, 1), full, atol=1e-4)
+
+
+def test_normaliser_height_anchor_is_the_standing_root_height():
+    """o = a norm_skel(c^s)_0 + b is the body's standing root height in x's normalised units."""
+    from mocapviz.features.ccnet import FeatureLayout
+    layout = FeatureLayout(n_joints=25)
+    h = layout.x_blocks["root"].start + 3
+    rng = np.random.default_rng(0)
+    x = rng.normal(0.9, 0.1, (200, layout.n_x)).astype(np.float32)
+    skel = rng.normal(0.84, 0.04, (200, layout.n_skel)).astype(np.float32)
+    nm = Normaliser.fit(x, skel, rng.normal(size=(200, 12)).astype(np.float32), layout.n_x - 2)
+    cfg = CCNetConfig(n_x=layout.n_x, n_skel=layout.n_skel, height_anchor=nm.height_anchor(layout))
+    assert cfg.height_channel == h
+    standing = np.array([[1.02] + [0.0] * (layout.n_skel - 1)], np.float32)
+    o = cfg.height_offset(nm.norm_skel(standing))
+    np.testing.assert_allclose(o * nm.x_std[h] + nm.x_mean[h], [1.02], rtol=1e-5)
 
 
 def test_residual_mean_adds_the_input_frame():

@@ -219,6 +219,12 @@ class Normaliser:
         marked too: the saved normaliser keeps only mean and std (checkpoints stay as they are)."""
         return self.x_std == 1.0
 
+    def height_anchor(self, layout: FeatureLayout) -> tuple[float, float]:
+        """(a, b) of CCNetConfig.height_anchor: the body's standing root height (c^s_0) in the
+        normalised units of x's root height, a * norm_skel(c^s)_0 + b."""
+        h = layout.x_blocks["root"].start + 3
+        return (float(self.skel_std[0] / self.x_std[h]), float((self.skel_mean[0] - self.x_mean[h]) / self.x_std[h]))
+
     def norm_x(self, x):
         n = len(self.x_mean)
         out = np.array(x, dtype=np.float32, copy=True)

@@ -176,31 +176,42 @@ class CCNet(nn.Module):
                 extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
             elif z is None:
                 z = self.prior_of(skip)[0]
-        out = self.split_output(self.head(skip, z, traj))
+        out = self.split_output(self.head(skip, z, traj, skel))
         if self.cfg.residual_slices:
             out["mean"] = self.cfg.add_residual(out["mean"].clone(), x)
         return dict(out, **extra)
 
     def trunk(self, x, skel, traj, types) -> torch.Tensor:
         """The causal stack: the skip sum (B, T, skip_channels) before the decoder's ReLU."""
-        h = torch.relu(F.linear(self.dropout(x), self.encoder.weight[:, :, 0], self.encoder.bias))
         skel, traj, types = self._ctrl(skel), self._ctrl(traj), self._ctrl(types)
+        if self.cfg.height_anchor:  # the root height relative to the body's standing one
+            x = x.clone()
+            x[..., self.cfg.height_channel] -= self.cfg.height_offset(skel)
+        h = torch.relu(F.linear(self.dropout(x), self.encoder.weight[:, :, 0], self.encoder.bias))
         skip = 0
         for blk in self.blocks:
             h, s = blk(h, skel, traj, types)
             skip = skip + s
         return skip
 
-    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None, traj: torch.Tensor | None = None) -> torch.Tensor:
+    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None, traj: torch.Tensor | None = None,
+             skel: torch.Tensor | None = None) -> torch.Tensor:
         """The decoder: raw output (..., n_out) from the skip sum (and z, with a latent; and the
-        phase in the control c^d ``traj``, with ``phase_harmonics``). With ``cfg.traj_without_z``
-        the predicted c^d (the output's last columns) is decoded from the skip sum alone."""
+        phase in the control c^d ``traj``, with ``phase_harmonics``; and c^s ``skel``, with
+        ``height_anchor``). With ``cfg.traj_without_z`` the predicted c^d (the output's last
+        columns) is decoded from the skip sum alone."""
         if not self.cfg.latent:
-            return self._decode(skip, traj)
-        out = self._decode(skip + self.z_in(z), traj)
-        if self.cfg.traj_without_z:
-            at = self.cfg.output_slices["traj_mean"].start
-            out = torch.cat([out[..., :at], self._decode(skip, traj, slice(at, None))], -1)
+            out = self._decode(skip, traj)
+        else:
+            out = self._decode(skip + self.z_in(z), traj)
+            if self.cfg.traj_without_z:
+                at = self.cfg.output_slices["traj_mean"].start
+                out = torch.cat([out[..., :at], self._decode(skip, traj, slice(at, None))], -1)
+        if self.cfg.height_anchor:  # the mean root height: the body's standing one + the decoder's
+            h, o = self.cfg.height_channel, self.cfg.height_offset(skel)[..., None]
+            if out.dim() > skel.dim():  # one c^s per sequence: (B, 1, 1)
+                o = o[:, None]
+            out = torch.cat([out[..., :h], out[..., h:h + 1] + o, out[..., h + 1:]], -1)
         return out
 
     def _decode(self, skip, traj, columns: slice = slice(None)) -> torch.Tensor:

@@ -100,6 +100,15 @@ class CCNetConfig:
     # phase kept turning, the held-out subject's seeds still moved at 1-3 % of the real activity);
     # with phase-dependent weights even a stalled causal stack decodes a cycle of poses.
     phase_harmonics: int = 0
+    # height_anchor (a, b): the root height channel is modelled relative to the body's standing
+    # root height, the first value of c^s: the network takes x_h - o as input and its mean output
+    # is o + the decoder's, o = a * c^s_0 + b (both normalised: a = skel_std_0 / x_std_h,
+    # b = (skel_mean_0 - x_mean_h) / x_std_h, Normaliser.height_anchor). Why: dataset v4 is 90 %
+    # Bandai's one body, and ccnet_phase_lerp (absolute height) learnt Bandai's root height, not the
+    # body's: teacher-forced on CMU 35_01 (a training clip, root at 1.02 m) it predicted 0.80 m with
+    # sigma 0.17 m, and generated bodies other than Bandai's dropped 0.1-0.2 m on the first frame and
+    # walked on bent knees (issue 9). (): the absolute height (the paper's; older checkpoints).
+    height_anchor: tuple[float, ...] = ()
 
     def __post_init__(self):
         if self.kernel_size != 2:
@@ -108,6 +117,11 @@ class CCNetConfig:
             raise ValueError("dilations must be positive")
         object.__setattr__(self, "dilations", tuple(int(d) for d in self.dilations))
         object.__setattr__(self, "residual_ranges", tuple((int(a), int(b)) for a, b in self.residual_ranges))
+        object.__setattr__(self, "height_anchor", tuple(float(v) for v in self.height_anchor))
+        if self.height_anchor and len(self.height_anchor) != 2:
+            raise ValueError(f"height_anchor is (a, b) or (), got {self.height_anchor}")
+        if self.height_anchor and any(sl.start <= self.height_channel < sl.stop for sl in self.residual_slices):
+            raise ValueError("the root height is either anchored to c^s or residual, not both")
         if not 0.0 < self.residual_gain <= 1.0:
             raise ValueError(f"residual_gain must lie in (0, 1], got {self.residual_gain}")
         if self.phase and self.n_traj < 2:
@@ -141,6 +155,18 @@ class CCNetConfig:
         for sl in self.residual_slices:
             mean[..., sl] += self.residual_gain * x[..., sl]
         return mean
+
+    @property
+    def height_channel(self) -> int:
+        """The root height in x: the last continuous channel (the root block, vx, vz, heading
+        rate, height, ends the continuous part: mocapviz.features.ccnet)."""
+        return self.n_continuous - 1
+
+    def height_offset(self, skel):
+        """o (...,): the anchored root height's offset (normalised units of x) for normalised
+        c^s (..., n_skel), numpy or torch; the one home of the rule (see ``height_anchor``)."""
+        a, b = self.height_anchor
+        return a * skel[..., 0] + b
 
     @property
     def n_continuous(self) -> int:

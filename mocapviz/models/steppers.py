@@ -40,6 +40,16 @@ class _StepWeights:
     phase_w: torch.Tensor = None  # (2K (S + 1), n_out): the phase-functioned decoder's (cfg.phase_harmonics only)
 
 
+def anchored_biases(cfg, skel, enc_w, enc_b, dec_b):
+    """Encoder and decoder biases (B, .) with CCNetConfig.height_anchor folded in, for normalised
+    c^s ``skel`` (B, n_skel): the encoder sees the root height less o, the mean adds o (as
+    ``CCNet.trunk`` and ``CCNet.head``). Torch or numpy; ``enc_w`` is (n_x, C) as the steppers keep it."""
+    h, o = cfg.height_channel, cfg.height_offset(skel)[:, None]
+    unit = dec_b * 0
+    unit[h] = 1
+    return enc_b - o * enc_w[h], dec_b + o * unit
+
+
 class CCNetStepper:
     """Incremental CCNet: one frame per call, past block inputs kept in a ring buffer (hist).
 
@@ -87,6 +97,7 @@ class CCNetStepper:
         self.w = w
         self.dtype = dtype
         self._static = None
+        self._enc_b, self._dec_b = w.enc_b, w.dec_b  # per character with a height anchor (set_static)
         self.reset()
 
     def reset(self):
@@ -107,6 +118,9 @@ class CCNetStepper:
         with torch.inference_mode():
             self._static = torch.addmm(self.w.ctrl_b, torch.cat([skel, types], 1).to(self.dtype),
                                        self.w.ctrl_static_w)
+            if self.cfg.height_anchor:
+                self._enc_b, self._dec_b = anchored_biases(self.cfg, skel.to(self.dtype), self.w.enc_w, self.w.enc_b,
+                                                           self.w.dec_b)
 
     def step(self, x: torch.Tensor, traj: torch.Tensor, z: torch.Tensor | None = None) -> torch.Tensor:
         """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}, z (B, latent) the latent of
@@ -128,7 +142,7 @@ class CCNetStepper:
 
     def _decode(self, skip, traj, columns: slice) -> torch.Tensor:
         h = skip.relu()
-        out = torch.addmm(self.w.dec_b[columns], h, self.w.dec_w[:, columns])
+        out = torch.addmm(self._dec_b[..., columns], h, self.w.dec_w[:, columns])
         if self.w.phase_w is not None:
             out.addmm_(phase_basis(h, traj[:, -2:].to(self.dtype), self.cfg.phase_harmonics), self.w.phase_w[:, columns])
         return out
@@ -141,7 +155,7 @@ class CCNetStepper:
         r = self.hist.shape[0]
         past = self.hist[self._past_index[self.t % r], self._blocks]          # (nb, B, C), a copy
         cur = self.hist[self.t % r]                # block inputs of this frame are written here
-        torch.addmm(w.enc_b, x, w.enc_w, out=cur[0]).relu_()
+        torch.addmm(self._enc_b, x, w.enc_w, out=cur[0]).relu_()
         cz = torch.addmm(self._static, traj, w.ctrl_traj_w)
         pre = torch.baddbmm(cz.view(self.batch, nb, 2 * c).transpose(0, 1), past, self._past_w)
         gates = self._gates
@@ -174,6 +188,7 @@ class NumpyStepper:
         self.z_w = None if w.z_w is None else f(w.z_w)
         self.phase_w = None if w.phase_w is None else f(w.phase_w)
         self._static = None
+        self._enc_b, self._dec_b = self.enc_b, self.dec_b  # per character with a height anchor (set_static)
         self.reset()
 
     def reset(self):
@@ -190,6 +205,9 @@ class NumpyStepper:
     def set_static(self, skel, types):
         st = np.concatenate([np.asarray(skel, np.float32), np.asarray(types, np.float32)], 1)
         self._static = st @ self.ctrl_static_w + self.ctrl_b
+        if self.cfg.height_anchor:
+            self._enc_b, self._dec_b = anchored_biases(self.cfg, np.asarray(skel, np.float32), self.enc_w, self.enc_b,
+                                                       self.dec_b)
 
     def step(self, x: np.ndarray, traj: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
         return self.head(self.trunk_step(x, traj), z, traj)
@@ -211,7 +229,7 @@ class NumpyStepper:
         """The decoder's ``columns`` of the raw output (``skip`` is overwritten by its ReLU)."""
         np.maximum(skip, 0, out=skip)
         out = skip @ self.dec_w[:, columns]
-        out += self.dec_b[columns]
+        out += self._dec_b[..., columns]
         if self.phase_w is not None:
             out += phase_basis(skip, np.asarray(traj, np.float32)[:, -2:], self.cfg.phase_harmonics) @ self.phase_w[:, columns]
         return out
@@ -220,7 +238,7 @@ class NumpyStepper:
         """Advance one frame; returns the skip sum (B, S) before the decoder's ReLU."""
         c, nb, t = self.cfg.channels, len(self._blocks), self.t
         h = x @ self.enc_w
-        h += self.enc_b
+        h += self._enc_b
         np.maximum(h, 0, out=h)
         cz = traj @ self.ctrl_traj_w
         cz += self._static

@@ -4,7 +4,7 @@ evaluation and checkpoint cadence; and the named configs (quick, default, paper)
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import torch
 
@@ -42,6 +42,7 @@ class TrainConfig:
     latent_lerp: bool = False       # ... blended between knots, not held (CCNetConfig.latent_lerp)
     traj_without_z: bool = False    # the predicted c^d does not see z (CCNetConfig.traj_without_z)
     latent_ar: float = 0.0          # z's prior an AR(1) process with this lag-one correlation (CCNetConfig.latent_ar)
+    height_anchor: bool = False     # root height relative to the body's standing root height (CCNetConfig.height_anchor)
     type_balance: float = 0.0       # windows drawn with weight 1 / (windows of their type)^this (WindowData.draw_train)
     phase: bool = False             # c^d gains a local motion phase (CCNetConfig.phase, features.phase)
     phase_harmonics: int = 0        # a phase-functioned decoder (CCNetConfig.phase_harmonics)
@@ -58,9 +59,15 @@ class TrainConfig:
     def make_optimizer(self, params) -> torch.optim.Optimizer:
         return OPTIMIZERS[self.optimizer](params, lr=self.lr)
 
-    def model_config(self, layout: FeatureLayout):
-        """The model's config for a feature layout (the registered class decides how)."""
-        return model_class(self.model).config_for(self, layout)
+    def model_config(self, layout: FeatureLayout, normaliser=None):
+        """The model's config for a feature layout (the registered class decides how); with
+        ``height_anchor``, the training data's ``normaliser`` places the anchor."""
+        cfg = model_class(self.model).config_for(self, layout)
+        if not self.height_anchor:
+            return cfg
+        if normaliser is None:
+            raise ValueError("height_anchor needs the training data's normaliser")
+        return replace(cfg, height_anchor=normaliser.height_anchor(layout))
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), sort_keys=True)
@@ -134,6 +141,11 @@ TRAIN_CONFIGS = {
     "phase_lerp": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
                               phase=True, phase_harmonics=2, latent=32, latent_hold=10, latent_lerp=True,
                               traj_without_z=True),
+    # "phase_lerp" with the root height relative to the body's standing root height
+    # (height_anchor): the network need not learn each body's height from its few non-Bandai clips.
+    "phase_lerp_anchor": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5,
+                                     optimizer="adam", phase=True, phase_harmonics=2, latent=32, latent_hold=10,
+                                     latent_lerp=True, traj_without_z=True, height_anchor=True),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }

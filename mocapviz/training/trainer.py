@@ -179,7 +179,7 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         raise ValueError("the dataset has no validation windows (rebuild it: dataset version >= 2)")
     model_cls = model_class(cfg.model)
     torch.manual_seed(cfg.seed)
-    model = model_cls(cfg.model_config(data.layout))
+    model = model_cls(cfg.model_config(data.layout, ds.normaliser))
     loss_fn = LOSSES[model.name]
     if cfg.rollout_from and not hasattr(model, "stepper"):
         raise ValueError(f"rollout_from needs a model with an incremental stepper (CCNet), not {cfg.model!r}")
