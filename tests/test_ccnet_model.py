@@ -162,6 +162,20 @@ def test_normaliser_height_anchor_is_the_standing_root_height():
     np.testing.assert_allclose(o * nm.x_std[h] + nm.x_mean[h], [1.02], rtol=1e-5)
 
 
+def test_per_body_normaliser_counts_each_body_once():
+    """Normaliser.per_body: c^s statistics over the distinct bodies, however many frames each has."""
+    rng = np.random.default_rng(1)
+    many, few = np.full((900, 3), 0.8, np.float32), np.array([[1.0, 0.5, 0.2], [1.2, 0.5, 0.4]], np.float32)
+    skel = np.concatenate([many, few, few])                       # one body 900 times, two others twice
+    nm = Normaliser.fit(rng.normal(size=(904, 6)).astype(np.float32), skel, rng.normal(size=(904, 2)), 4)
+    body = nm.per_body(skel)
+    # the three bodies' columns: (0.8, 1.0, 1.2), (0.8, 0.5, 0.5), (0.8, 0.2, 0.4)
+    np.testing.assert_allclose(body.skel_mean, [1.0, 0.6, 1.4 / 3], rtol=1e-6)
+    np.testing.assert_allclose(body.skel_std, np.sqrt([0.08 / 3, 0.06 / 3, 0.56 / 9]), rtol=1e-5)
+    assert nm.skel_std[0] < 0.03 < body.skel_std[0]               # over frames the one body's spread wins
+    np.testing.assert_array_equal(body.x_mean, nm.x_mean)          # x and c^d untouched
+
+
 def test_residual_mean_adds_the_input_frame():
     plain, res = net(small_cfg()), CCNet(small_cfg(residual=True)).eval()
     res.load_state_dict(plain.state_dict())

@@ -42,6 +42,7 @@ class TrainConfig:
     latent_lerp: bool = False       # ... blended between knots, not held (CCNetConfig.latent_lerp)
     traj_without_z: bool = False    # the predicted c^d does not see z (CCNetConfig.traj_without_z)
     latent_ar: float = 0.0          # z's prior an AR(1) process with this lag-one correlation (CCNetConfig.latent_ar)
+    skel_per_body: bool = False     # c^s normalised over distinct training bodies, not frames (Normaliser.per_body)
     height_anchor: bool = False     # root height relative to the body's standing root height (CCNetConfig.height_anchor)
     type_balance: float = 0.0       # windows drawn with weight 1 / (windows of their type)^this (WindowData.draw_train)
     phase: bool = False             # c^d gains a local motion phase (CCNetConfig.phase, features.phase)
@@ -146,6 +147,10 @@ TRAIN_CONFIGS = {
     "phase_lerp_anchor": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5,
                                      optimizer="adam", phase=True, phase_harmonics=2, latent=32, latent_hold=10,
                                      latent_lerp=True, traj_without_z=True, height_anchor=True),
+    # ... and c^s normalised over the distinct training bodies (skel_per_body), not over frames
+    "phase_lerp_body": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5,
+                                   optimizer="adam", phase=True, phase_harmonics=2, latent=32, latent_hold=10,
+                                   latent_lerp=True, traj_without_z=True, height_anchor=True, skel_per_body=True),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }

@@ -27,6 +27,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -172,6 +173,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     ckpt, csv_path, best_path = out_dir / CHECKPOINT, out_dir / LOG, out_dir / BEST
     if cfg.window > ds.config.window:
         raise ValueError(f"window {cfg.window} exceeds the dataset's {ds.config.window}")
+    if cfg.skel_per_body:  # the checkpoint keeps this normaliser: generation reads c^s as trained
+        ds = replace(ds, normaliser=ds.normaliser.per_body(ds.skel[(ds.clips.split == "train").values]))
     data = WindowData(ds, cfg.window, phase=cfg.phase)
     if len(data.train) == 0:
         raise ValueError("the dataset has no training windows")
