@@ -131,6 +131,30 @@ def test_generated_motion_keeps_moving(ds, name, clip):
     assert 0.6 < m.root_positions[60:, 1].mean() / clip_root[:, 1].mean() < 1.3  # upright, not sinking
 
 
+HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
+    "issue 9: ccnet_phase_lerp learnt Bandai's root height, not the body's (90 % of dataset v4's frames are "
+    "Bandai's one body): taller bodies drop 0.1-0.2 m on the first generated frame (CMU 35_01 1.00 -> 0.81 m, "
+    "the held-out tr jog 0.94 -> 0.82), then bend their knees to reach the floor. Runs H1 and H2 "
+    "(models/README.md: the height anchored to c^s, and c^s normalised per body) were not better overall"))
+
+
+@pytest.mark.parametrize("clip", [
+    "dataset-2_walk-turn-left_active_005",   # Bandai's body
+    "91_02",                                 # CMU 91: 0.81 m standing root height, Bandai's is 0.83
+    pytest.param("HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=HEIGHT_DROP),
+    pytest.param("35_01", marks=HEIGHT_DROP),   # CMU 35: 0.97 m
+])
+def test_first_generated_frame_keeps_the_bodys_root_height(ds, clip):
+    """The first generated frame continues the seed's root height (a real root moves millimetres
+    per frame at 60 fps): a body other than Bandai's must not sink or rise at the seed's end."""
+    model, norm, _ = zoo.load("ccnet_phase_lerp", retrain_if_missing=False)
+    row, x, traj, skel, ti = seed_inputs(ds, clip, 48)
+    out = Generator(model, norm).run(x, skel, one_hot([ti], model.cfg.n_types), 5, seed_traj=traj)
+    r = ds.clips.iloc[row]
+    h = out.motion(0, ds.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False).root_positions[:, 1]
+    assert abs(h[48] - h[47]) < 0.03, f"root height {h[47]:.3f} -> {h[48]:.3f} m at the first generated frame"
+
+
 def test_foot_lock_puts_a_carried_foot_down_again():
     """A foot labelled in contact while the body carries it along at 0.9 m/s (a gliding generated
     root) is held where it is, and put down again each time it has drifted MAX_SLIP from the

@@ -107,7 +107,9 @@ class CCNetConfig:
     # Bandai's one body, and ccnet_phase_lerp (absolute height) learnt Bandai's root height, not the
     # body's: teacher-forced on CMU 35_01 (a training clip, root at 1.02 m) it predicted 0.80 m with
     # sigma 0.17 m, and generated bodies other than Bandai's dropped 0.1-0.2 m on the first frame and
-    # walked on bent knees (issue 9). (): the absolute height (the paper's; older checkpoints).
+    # walked on bent knees (issue 9). Tried alone (run H1, config phase_lerp_anchor, models/README.md)
+    # it did not help: teacher-forced CMU 35_01 0.89 m, the CMU file seeds slower (activity 0.36-0.48x).
+    # (): the absolute height (the paper's; older checkpoints).
     height_anchor: tuple[float, ...] = ()
 
     def __post_init__(self):
