@@ -134,8 +134,8 @@ def test_generated_motion_keeps_moving(ds, name, clip):
 HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
     "issue 9: ccnet_phase_lerp learnt Bandai's root height, not the body's (90 % of dataset v4's frames are "
     "Bandai's one body): taller bodies drop 0.1-0.2 m on the first generated frame (CMU 35_01 1.00 -> 0.81 m, "
-    "the held-out tr jog 0.94 -> 0.82), then bend their knees to reach the floor. Runs H1 and H2 "
-    "(models/README.md: the height anchored to c^s, and c^s normalised per body) were not better overall"))
+    "the held-out tr jog 0.94 -> 0.82), then bend their knees to reach the floor. Runs H1-H3 "
+    "(models/README.md: the height anchored to c^s, c^s normalised per body, both) were not better overall"))
 
 
 @pytest.mark.parametrize("clip", [

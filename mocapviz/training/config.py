@@ -151,7 +151,8 @@ TRAIN_CONFIGS = {
     # ... and c^s normalised over the distinct training bodies (skel_per_body), not over frames.
     # Run H2 (models/README.md): the held-out subject's jog keeps its height and pace (activity 1.10x,
     # mean), but its sneak, the walk-back and the side step run off, the CMU file seeds walk in place,
-    # and validation NLL is -59.7 against -92.2: not committed.
+    # and validation NLL is -59.7 against -92.2: not committed. skel_per_body alone (run H3): -66.5,
+    # no better on the bar.
     "phase_lerp_body": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5,
                                    optimizer="adam", phase=True, phase_harmonics=2, latent=32, latent_hold=10,
                                    latent_lerp=True, traj_without_z=True, height_anchor=True, skel_per_body=True),
