@@ -129,6 +129,16 @@ def test_height_anchor_is_the_plain_network_on_the_height_less_the_bodys():
         small_cfg(height_anchor=(1.0, 0.0), residual=True)
 
 
+def stepped(m, backend, x, skel, traj, types, z):
+    """The raw outputs (B, T, n_out) of ``m``'s stepper on ``backend``, one frame (and z) per call."""
+    st = m.stepper(x.shape[0], backend)
+    conv = (lambda a: a) if backend == "torch" else (lambda a: a.numpy())
+    st.set_static(conv(skel), conv(types))
+    with torch.inference_mode():
+        return torch.stack([torch.as_tensor(st.step(conv(x[:, t]), conv(traj[:, t]), conv(z[:, t])))
+                            for t in range(x.shape[1])], 1)
+
+
 @pytest.mark.parametrize("backend", ["torch", "numpy"])
 def test_height_anchor_incremental_equals_full_recompute(backend):
     """The steppers fold the anchor into per-character biases: still the full forward."""
@@ -138,12 +148,7 @@ def test_height_anchor_incremental_equals_full_recompute(backend):
     z = torch.randn(2, 50, cfg.latent, generator=torch.Generator().manual_seed(3))
     with torch.no_grad():
         full = m.head(m.trunk(x, skel, traj, types), z, traj, skel)
-    st = m.stepper(2, backend)
-    conv = (lambda a: a) if backend == "torch" else (lambda a: a.numpy())
-    st.set_static(conv(skel), conv(types))
-    with torch.inference_mode():
-        steps = [torch.as_tensor(st.step(conv(x[:, t]), conv(traj[:, t]), conv(z[:, t]))) for t in range(50)]
-    assert torch.allclose(torch.stack(steps, 1), full, atol=1e-4)
+    assert torch.allclose(stepped(m, backend, x, skel, traj, types, z), full, atol=1e-4)
 
 
 def test_normaliser_height_anchor_is_the_standing_root_height():
@@ -378,12 +383,7 @@ def test_latent_incremental_equals_full_recompute(backend, traj_without_z, z_sca
     with torch.no_grad():
         full = m.head(m.trunk(x, skel, traj, types), z, traj)  # the raw output: mean, sigma, contacts, c^d
         zero = m(x, skel, traj, types)["mean"]
-    st = m.stepper(2, backend)
-    conv = (lambda a: a) if backend == "torch" else (lambda a: a.numpy())
-    st.set_static(conv(skel), conv(types))
-    with torch.inference_mode():
-        steps = [torch.as_tensor(st.step(conv(x[:, t]), conv(traj[:, t]), conv(z[:, t]))) for t in range(50)]
-    assert torch.allclose(torch.stack(steps, 1), full, atol=1e-4)
+    assert torch.allclose(stepped(m, backend, x, skel, traj, types, z), full, atol=1e-4)
     assert torch.allclose(full[..., :cfg.n_continuous], zero, atol=1e-2) == (z_scale == 0)  # z matters
 
 
