@@ -160,7 +160,7 @@ def test_normaliser_height_anchor_is_the_standing_root_height():
     x = rng.normal(0.9, 0.1, (200, layout.n_x)).astype(np.float32)
     skel = rng.normal(0.84, 0.04, (200, layout.n_skel)).astype(np.float32)
     nm = Normaliser.fit(x, skel, rng.normal(size=(200, 12)).astype(np.float32), layout.n_x - 2)
-    cfg = CCNetConfig(n_x=layout.n_x, n_skel=layout.n_skel, height_anchor=nm.height_anchor(layout))
+    cfg = CCNetConfig(n_x=layout.n_x, n_skel=layout.n_skel, height_anchor=nm.height_anchor(h))
     assert cfg.height_channel == h
     standing = np.array([[1.02] + [0.0] * (layout.n_skel - 1)], np.float32)
     o = cfg.height_offset(nm.norm_skel(standing))

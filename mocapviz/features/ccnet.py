@@ -227,10 +227,10 @@ class Normaliser:
         bodies = np.unique(np.asarray(skel, np.float64), axis=0)
         return replace(self, skel_mean=bodies.mean(0).astype(np.float32), skel_std=self._std(bodies))
 
-    def height_anchor(self, layout: FeatureLayout) -> tuple[float, float]:
+    def height_anchor(self, h: int) -> tuple[float, float]:
         """(a, b) of CCNetConfig.height_anchor: the body's standing root height (c^s_0) in the
-        normalised units of x's root height, a * norm_skel(c^s)_0 + b."""
-        h = layout.x_blocks["root"].start + 3
+        normalised units of x's root height channel ``h`` (CCNetConfig.height_channel),
+        a * norm_skel(c^s)_0 + b."""
         return (float(self.skel_std[0] / self.x_std[h]), float((self.skel_mean[0] - self.x_mean[h]) / self.x_std[h]))
 
     def norm_x(self, x):
