@@ -149,6 +149,19 @@ class Motion:
                        rotations=a @ self.rotations @ a.T, root_positions=self.root_positions @ a.T,
                        translations={j: t @ a.T for j, t in self.translations.items()}, meta=meta)
 
+    def scaled(self, k: float) -> "Motion":
+        """The motion ``k`` times as large about the world origin (offsets, end sites, root and
+        joint translations; rotations unchanged): FK of the result is ``k`` times FK of this one.
+        Per-frame arrays a reader kept (raw channel values) are dropped: they hold old lengths."""
+        sk = self.skeleton
+        ends = tuple((j, tuple(k * np.asarray(off))) for j, off in sk.end_sites)
+        meta = self._derived_meta()
+        if "root_offset" in meta:
+            meta["root_offset"] = k * np.asarray(meta["root_offset"])
+        return replace(self, skeleton=Skeleton(sk.names, sk.parents, k * sk.offsets, ends),
+                       root_positions=k * self.root_positions,
+                       translations={j: k * t for j, t in self.translations.items()}, meta=meta)
+
     def fold_root(self) -> "Motion":
         """Fold the root into its only child, which becomes the root (a reference node such
         as Bandai's ``joint_Root`` above ``Hips``). Exact: every other joint keeps its FK

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 
 from data_prep.motion_types import merged_type, source_label
 from mocapviz.features.motion_types import MOTION_TYPES
@@ -261,6 +262,32 @@ def test_type_vocabulary_is_stored_and_old_checkpoints_keep_their_indices(ds):
     gen = Generator(model, norm).run(a["x"][None, :60], a["skel"][None], one_hot([a["type_index"]], model.cfg.n_types),
                                      30, seed_traj=a["traj"][None, :60])
     assert gen.x.shape[1] == 90 and np.isfinite(gen.x).all()
+
+
+def test_scaled_batch_is_the_scaled_motions_features(ds):
+    """WindowData.scaled(b, s) equals the normalised features of the motion s times as large
+    (Motion.scaled) on x's continuous channels, c^s and c^d's ground positions; the phase columns
+    and the contact labels stay as they were (the labels' thresholds are in metres, so labels
+    computed afresh on the grown body would differ on a few frames: the feet are down at the same
+    frames)."""
+    from data_prep.catalog import build_catalog, load_motion
+    from mocapviz.training.windows import WindowData
+    data, norm, n = WindowData(ds, 60, phase=True), ds.normaliser, ds.layout.n_continuous
+    cat = build_catalog()
+    m = feat.prepare_motion(load_motion(cat[cat["clip"] == "35_01"].iloc[0]))
+    b = data.batch(np.array([[ds.clip_row("35_01"), 5], [ds.clip_row("35_01"), 5]]))
+    got = data.scaled(b, [1.15, 0.9])
+    for i, s in enumerate((1.15, 0.9)):
+        f = feat.motion_features(m.scaled(s))
+        np.testing.assert_allclose(got["x"][i, :, :n], norm.norm_x(f.x[5:65])[:, :n], atol=1e-4)
+        np.testing.assert_allclose(got["target_x"][i, :, :n], norm.norm_x(f.x[6:66])[:, :n], atol=1e-4)
+        np.testing.assert_allclose(got["skel"][i], norm.norm_skel(f.skel), atol=1e-4)
+        np.testing.assert_allclose(got["traj"][i, :, :12], norm.norm_traj(f.traj[6:66]), atol=1e-4)
+        np.testing.assert_allclose(got["target_traj"][i, :, :12], norm.norm_traj(f.traj[7:67]), atol=1e-4)
+    for key in ("x", "target_x", "traj"):
+        tail = slice(n, None) if key != "traj" else slice(12, None)
+        assert torch.equal(got[key][..., tail], b[key][..., tail])
+    assert not torch.allclose(got["x"][..., :n], b["x"][..., :n], atol=1e-2)   # it did grow
 
 
 def test_contact_labels_on_bandai_gait_look_like_the_other_sources(full_catalog, data_dir):

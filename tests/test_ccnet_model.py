@@ -181,6 +181,23 @@ def test_per_body_normaliser_counts_each_body_once():
     np.testing.assert_array_equal(body.x_mean, nm.x_mean)          # x and c^d untouched
 
 
+def test_body_scaled_normaliser_is_the_scaled_bodies_statistics():
+    """Normaliser.body_scaled(lo, hi): c^s's mean and std those of s c^s over frames, s ~ U(lo, hi)
+    independent of c^s (checked against every frame at 2001 evenly spread s); a constant channel
+    (stored std 1) scales with s, a zero one stays unscaled."""
+    rng = np.random.default_rng(2)
+    skel = np.stack([rng.normal(0.85, 0.03, 300), np.full(300, 0.4), np.zeros(300)], 1).astype(np.float32)
+    nm = Normaliser.fit(rng.normal(size=(300, 6)).astype(np.float32), skel, rng.normal(size=(300, 2)), 4)
+    assert nm.skel_std[1] == nm.skel_std[2] == 1.0
+    s = np.linspace(0.9, 1.25, 2001)
+    seen = (s[:, None, None] * skel.astype(np.float64)[None]).reshape(-1, 3)
+    scaled = nm.body_scaled(0.9, 1.25)
+    np.testing.assert_allclose(scaled.skel_mean, seen.mean(0), rtol=1e-5)
+    np.testing.assert_allclose(scaled.skel_std[:2], seen.std(0)[:2], rtol=2e-3)
+    assert scaled.skel_std[2] == 1.0
+    np.testing.assert_array_equal(scaled.x_std, nm.x_std)
+
+
 def test_residual_mean_adds_the_input_frame():
     plain, res = net(small_cfg()), CCNet(small_cfg(residual=True)).eval()
     res.load_state_dict(plain.state_dict())

@@ -128,6 +128,25 @@ def test_latent_rollout_run_trains_logs_the_kl_and_resumes_exactly(ds, tmp_path)
     assert not torch.equal(init.prior[0].weight, trained.prior[0].weight)
 
 
+def test_body_scale_run_keeps_the_scaled_normaliser_and_resumes_exactly(ds, tmp_path):
+    """A run with each window's body scaled (``body_scale``): the checkpoint carries c^s's
+    statistics over the scaled bodies (Normaliser.body_scaled), the config survives its JSON,
+    the losses are the same whether or not the run was interrupted, and a bad range is refused."""
+    from mocapviz.training.config import TrainConfig
+    cfg = replace(TINY, body_scale=(0.9, 1.25))
+    assert TrainConfig.from_json(cfg.to_json()) == cfg
+    full = train(ds, cfg, tmp_path / "full", progress=False)
+    train(ds, cfg, tmp_path / "part", progress=False, stop_after=4)
+    train(ds, cfg, tmp_path / "part", progress=False)
+    assert rows(tmp_path / "full") == rows(tmp_path / "part")
+    _, norm, _ = load_checkpoint(full)
+    want = ds.normaliser.body_scaled(0.9, 1.25)
+    np.testing.assert_array_equal(norm.skel_std, want.skel_std)
+    assert norm.skel_std[0] > ds.normaliser.skel_std[0]        # the scaled bodies spread wider
+    with pytest.raises(ValueError, match="body_scale"):
+        replace(TINY, body_scale=(1.25, 0.9))
+
+
 def test_type_balance_draws_every_type_equally_often(ds):
     data = WindowData(ds, 30)
     counts = np.bincount(data.train_types)

@@ -110,6 +110,14 @@ def test_resample_h36m_keeps_duration(h36m_files):
     assert r.n_frames == (m.n_frames - 1) // 2 + 1 and abs(r.duration - m.duration) < 1 / 25
 
 
+def test_scaled_motion_is_scaled_fk(cmu):
+    """Motion.scaled(k): FK k times as large, the same rotations; 1/k scales it back."""
+    big = cmu.scaled(1.15)
+    np.testing.assert_allclose(big.positions(), 1.15 * cmu.positions(), atol=1e-9)
+    np.testing.assert_array_equal(big.rotations, cmu.rotations)
+    np.testing.assert_allclose(big.scaled(1 / 1.15).positions(), cmu.positions(), atol=1e-9)
+
+
 @pytest.mark.parametrize("which", ["cmu", "hdm05"])
 def test_mirror_equals_reflected_fk_with_sides_swapped(which, request):
     m = request.getfixturevalue(which)

@@ -71,6 +71,15 @@ class FeatureLayout:
         return cls((cfg.n_x - 6) // 12, cfg.n_types)
 
     @property
+    def length_channels(self) -> np.ndarray:
+        """(n_x,) bool: the channels of x in m or m/s (``pos``, ``vel``, the root's vx, vz and
+        height), the ones that grow with the body (the rest are angles, rates and contacts)."""
+        b, out = self.x_blocks, np.zeros(self.n_x, bool)
+        out[b["pos"]] = out[b["vel"]] = True
+        out[b["root"].start + np.array([0, 1, 3])] = True
+        return out
+
+    @property
     def n_continuous(self) -> int:
         """Continuous part of x (everything but the contact labels)."""
         return 12 * self.n_joints + 4
@@ -226,6 +235,18 @@ class Normaliser:
         bodies sat 5-22 standard deviations out (CMU 35: 12), inputs the network extrapolates on."""
         bodies = np.unique(np.asarray(skel, np.float64), axis=0)
         return replace(self, skel_mean=bodies.mean(0).astype(np.float32), skel_std=self._std(bodies))
+
+    def body_scaled(self, lo: float, hi: float) -> "Normaliser":
+        """This normaliser with c^s's mean and std those of s c^s, s ~ U(lo, hi) drawn
+        independently of c^s: the bodies training sees with ``TrainConfig.body_scale``
+        (E[s c] = E[s] E[c], E[(s c)^2] = E[s^2] E[c^2]; a constant channel, stored with std 1,
+        has variance 0)."""
+        m1, m2 = (lo + hi) / 2, (lo * lo + lo * hi + hi * hi) / 3
+        mean = self.skel_mean.astype(np.float64)
+        var = np.where(self.skel_std == 1.0, 0.0, self.skel_std.astype(np.float64) ** 2)
+        std = np.sqrt(np.maximum(m2 * (var + mean ** 2) - (m1 * mean) ** 2, 0.0))
+        return replace(self, skel_mean=(m1 * mean).astype(np.float32),
+                       skel_std=np.where(std < 1e-4, 1.0, std).astype(np.float32))
 
     def height_anchor(self, h: int) -> tuple[float, float]:
         """(a, b) of CCNetConfig.height_anchor: the body's standing root height (c^s_0) in the

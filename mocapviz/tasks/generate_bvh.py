@@ -25,7 +25,7 @@ from mocapviz.io.asfamc import read_amc
 from mocapviz.io.bvh import read_bvh
 from mocapviz.io.tpose import leading_tpose_frames
 from mocapviz.motion import Motion
-from mocapviz.skeleton import Skeleton, SkeletonMapError, map_to_ccnet25
+from mocapviz.skeleton import SkeletonMapError, map_to_ccnet25
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.rig import ModelRig
 
@@ -184,7 +184,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     # their root heights (within skeleton_z standard deviations of their mean; a seed inside
     # stays as it is), and c^s within skeleton_z standard deviations of their mean
     size = seen_scale(seed_m.skeleton.configuration()[0], normaliser, skeleton_z)
-    seen = _scaled(seed_m, size)
+    seen = seed_m.scaled(size)
     feats = motion_features(seen, fps)
     n_gen = int(round(seconds * fps))
     types_oh = type_schedule(list(types), known, len(feats.x), n_gen, switch_every, fps)
@@ -199,8 +199,8 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
         feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
         seed_traj=seed_controls(feats.traj)[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
         progress=progress)
-    gen_m = rig.expressible(_scaled(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading,
-                                               ik=ik, include_seed=False), 1 / size))
+    gen_m = rig.expressible(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading,
+                                      ik=ik, include_seed=False).scaled(1 / size))
     out = _concat(seed60, rig.from_model(gen_m))
     return SeedGeneration(out, n_seed, gen_m, rig)
 
@@ -233,15 +233,6 @@ def limit_skeleton(skel: np.ndarray, normaliser, z: float) -> np.ndarray:
     mean, per value (``z = 0``: the mean training skeleton; ``inf``: unchanged)."""
     dev = np.clip((skel - normaliser.skel_mean) / normaliser.skel_std, -z, z)
     return (normaliser.skel_mean + dev * normaliser.skel_std).astype(np.float32)
-
-
-def _scaled(motion: Motion, k: float) -> Motion:
-    """The motion ``k`` times as large about the world origin (offsets, end sites and root;
-    rotations unchanged)."""
-    sk = motion.skeleton
-    ends = tuple((j, tuple(k * np.asarray(off))) for j, off in sk.end_sites)
-    return Motion(Skeleton(sk.names, sk.parents, k * sk.offsets, ends), motion.rotations, k * motion.root_positions,
-                  motion.fps, name=motion.name, meta=dict(motion.meta))
 
 
 def _concat(seed: Motion, generated: Motion) -> Motion:

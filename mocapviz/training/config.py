@@ -44,6 +44,7 @@ class TrainConfig:
     latent_ar: float = 0.0          # z's prior an AR(1) process with this lag-one correlation (CCNetConfig.latent_ar)
     skel_per_body: bool = False     # c^s normalised over distinct training bodies, not frames (Normaliser.per_body)
     height_anchor: bool = False     # root height relative to the body's standing root height (CCNetConfig.height_anchor)
+    body_scale: tuple[float, ...] = ()  # (lo, hi): each window's body scaled by s ~ U(lo, hi) (WindowData.scaled)
     type_balance: float = 0.0       # windows drawn with weight 1 / (windows of their type)^this (WindowData.draw_train)
     phase: bool = False             # c^d gains a local motion phase (CCNetConfig.phase, features.phase)
     phase_harmonics: int = 0        # a phase-functioned decoder (CCNetConfig.phase_harmonics)
@@ -56,6 +57,8 @@ class TrainConfig:
     def __post_init__(self):
         if self.optimizer not in OPTIMIZERS:
             raise ValueError(f"unknown optimizer {self.optimizer!r}; choose from {sorted(OPTIMIZERS)}")
+        if self.body_scale and not (len(self.body_scale) == 2 and 0 < self.body_scale[0] <= self.body_scale[1]):
+            raise ValueError(f"body_scale is (lo, hi) with 0 < lo <= hi, or (), got {self.body_scale}")
 
     def make_optimizer(self, params) -> torch.optim.Optimizer:
         return OPTIMIZERS[self.optimizer](params, lr=self.lr)
@@ -78,6 +81,7 @@ class TrainConfig:
         d = json.loads(s) if isinstance(s, str) else dict(s)  # runs before "model" existed were CCNet
         d["lambdas"], d["dilations"] = tuple(d["lambdas"]), tuple(d["dilations"])
         d["residual_blocks"] = tuple(d.get("residual_blocks", ()))
+        d["body_scale"] = tuple(d.get("body_scale", ()))
         return cls(**d)
 
 
@@ -156,6 +160,11 @@ TRAIN_CONFIGS = {
     # and validation NLL is -59.7 against -92.2: not committed. skel_per_body alone (run H3): -66.5,
     # no better on the issue's bar.
     "phase_lerp_body": replace(PHASE_LERP, height_anchor=True, skel_per_body=True),
+    # "phase_lerp" with each training window's body scaled by s ~ U(0.9, 1.25) (body_scale,
+    # WindowData.scaled): Bandai's body (root 0.84 m) then spans 0.76-1.05 m, the training bodies' range
+    # (0.80-1.04 m), so the network sees root height, pace and c^s change together, not one body.
+    "phase_lerp_scale": replace(PHASE_LERP, body_scale=(0.9, 1.25)),
+    "phase_lerp_scale_anchor": replace(PHASE_LERP, body_scale=(0.9, 1.25), height_anchor=True),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }

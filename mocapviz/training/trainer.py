@@ -175,6 +175,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         raise ValueError(f"window {cfg.window} exceeds the dataset's {ds.config.window}")
     if cfg.skel_per_body:  # the checkpoint keeps this normaliser: generation reads c^s as trained
         ds = replace(ds, normaliser=ds.normaliser.per_body(ds.skel[(ds.clips.split == "train").values]))
+    if cfg.body_scale:  # c^s normalised over the scaled bodies training sees (the checkpoint keeps it)
+        ds = replace(ds, normaliser=ds.normaliser.body_scaled(*cfg.body_scale))
     data = WindowData(ds, cfg.window, phase=cfg.phase)
     if len(data.train) == 0:
         raise ValueError("the dataset has no training windows")
@@ -217,6 +219,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         rng = np.random.default_rng([cfg.seed, rank, step])
         torch.manual_seed(int(rng.integers(2 ** 62)))
         b = data.batch(data.draw_train(rng, per_rank, cfg.type_balance))
+        if cfg.body_scale:  # each window's body at another size (WindowData.scaled)
+            b = data.scaled(b, rng.uniform(*cfg.body_scale, size=per_rank))
         b["x"] = b["x"] + cfg.noise_std * torch.randn_like(b["x"])  # input noise (the targets stay clean)
         if cfg.offset_noise_std:
             b["x"] = b["x"] + offset_noise(b["x"], cfg.offset_noise_std, model.cfg.n_continuous)
