@@ -272,7 +272,7 @@ def test_scaled_batch_is_the_scaled_motions_features(ds):
     frames)."""
     from data_prep.catalog import build_catalog, load_motion
     from mocapviz.training.windows import WindowData
-    data, norm, n = WindowData(ds, 60, phase=True), ds.normaliser, ds.layout.n_continuous
+    data, norm, n, nt = WindowData(ds, 60, phase=True), ds.normaliser, ds.layout.n_continuous, ds.layout.n_traj
     cat = build_catalog()
     m = feat.prepare_motion(load_motion(cat[cat["clip"] == "35_01"].iloc[0]))
     b = data.batch(np.array([[ds.clip_row("35_01"), 5], [ds.clip_row("35_01"), 5]]))
@@ -282,10 +282,10 @@ def test_scaled_batch_is_the_scaled_motions_features(ds):
         np.testing.assert_allclose(got["x"][i, :, :n], norm.norm_x(f.x[5:65])[:, :n], atol=1e-4)
         np.testing.assert_allclose(got["target_x"][i, :, :n], norm.norm_x(f.x[6:66])[:, :n], atol=1e-4)
         np.testing.assert_allclose(got["skel"][i], norm.norm_skel(f.skel), atol=1e-4)
-        np.testing.assert_allclose(got["traj"][i, :, :12], norm.norm_traj(f.traj[6:66]), atol=1e-4)
-        np.testing.assert_allclose(got["target_traj"][i, :, :12], norm.norm_traj(f.traj[7:67]), atol=1e-4)
+        np.testing.assert_allclose(got["traj"][i, :, :nt], norm.norm_traj(f.traj[6:66]), atol=1e-4)
+        np.testing.assert_allclose(got["target_traj"][i, :, :nt], norm.norm_traj(f.traj[7:67]), atol=1e-4)
     for key in ("x", "target_x", "traj"):
-        tail = slice(n, None) if key != "traj" else slice(12, None)
+        tail = slice(n, None) if key != "traj" else slice(nt, None)
         assert torch.equal(got[key][..., tail], b[key][..., tail])
     assert not torch.allclose(got["x"][..., :n], b["x"][..., :n], atol=1e-2)   # it did grow
 

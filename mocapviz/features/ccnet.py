@@ -213,7 +213,10 @@ class Normaliser:
 
     @staticmethod
     def _std(a: np.ndarray) -> np.ndarray:
-        s = a.std(axis=0)
+        return Normaliser._floored(a.std(axis=0))
+
+    @staticmethod
+    def _floored(s: np.ndarray) -> np.ndarray:
         return np.where(s < 1e-4, 1.0, s).astype(np.float32)  # constant channels stay unscaled
 
     @classmethod
@@ -245,8 +248,7 @@ class Normaliser:
         mean = self.skel_mean.astype(np.float64)
         var = np.where(self.skel_std == 1.0, 0.0, self.skel_std.astype(np.float64) ** 2)
         std = np.sqrt(np.maximum(m2 * (var + mean ** 2) - (m1 * mean) ** 2, 0.0))
-        return replace(self, skel_mean=(m1 * mean).astype(np.float32),
-                       skel_std=np.where(std < 1e-4, 1.0, std).astype(np.float32))
+        return replace(self, skel_mean=(m1 * mean).astype(np.float32), skel_std=self._floored(std))
 
     def height_anchor(self, h: int) -> tuple[float, float]:
         """(a, b) of CCNetConfig.height_anchor: the body's standing root height (c^s_0) in the

@@ -43,7 +43,7 @@ class WindowData:
         grows = self.layout.length_channels
         self._x_grow = torch.from_numpy(grows.astype(np.float32))
         self._x_k = torch.zeros(len(grows))
-        self._x_k[:n] = torch.from_numpy(np.where(grows[:n], norm.x_mean / norm.x_std, 0.0).astype(np.float32))
+        self._x_k[:n] = torch.from_numpy(norm.x_mean / norm.x_std)
         self._traj_grow = torch.zeros(self.traj.shape[1])
         self._traj_grow[:n_traj] = 1.0        # the ground positions, not the phase columns after them
         self._traj_k = torch.zeros(self.traj.shape[1])
