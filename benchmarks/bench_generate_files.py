@@ -1,10 +1,10 @@
 """What the ``generate`` command makes of motion files: issue 9's pose-level quality of its output.
 
-    .venv/bin/python benchmarks/bench_generate_files.py [--model ccnet_phase_lerp] [--seconds 60] [--sample]
-        [--temperature 1] [FILE.bvh:TYPE ...]
+    .venv/bin/python benchmarks/bench_generate_files.py [--model ccnet_phase_lerp_scale] [--seconds 60] [--sample]
+        [--temperature 0.5] [--pace seed|network] [FILE.bvh:TYPE ...]
 
 Each file is continued exactly as ``mocapviz generate --seed FILE --type TYPE --seconds S --no-ik``
-does (:func:`mocapviz.tasks.generate_bvh.generate_from_seed`); the frames it would write are
+does, with its defaults (:func:`mocapviz.tasks.generate_bvh.generate_from_seed`); the frames it would write are
 mapped back onto the model's 25 joints and the second half of the generated ones is measured
 against the dataset's real clips of TYPE (:func:`mocapviz.tasks.generation_quality.motion_quality`:
 freezing share, activity, jitter, pose distance, root speed). Without files: walk and run takes
@@ -23,6 +23,7 @@ import torch
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from data_prep.sources import find_data_dir
 from mocapviz.tasks.generate_bvh import generate_from_seed, load_seed
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE
 from mocapviz.tasks.generation_quality import QUALITY_KEYS, References, motion_quality, moves_like_real
 from mocapviz.training.checkpoint import load_checkpoint
 from mocapviz.zoo import find_checkpoint
@@ -34,9 +35,9 @@ DEFAULT_FILES = ("bandai/dataset-1/dataset-1_walk_active_001.bvh:walk",
 
 
 def file_quality(path, motion_type: str, model, norm, meta, refs: References, seconds: float, sample: bool,
-                 temperature: float, rng_seed: int = 0) -> dict:
+                 temperature: float, pace: str, rng_seed: int = 0) -> dict:
     result = generate_from_seed(load_seed(path), model, norm, meta, types=[motion_type], seconds=seconds,
-                                sample=sample, ik=False, temperature=temperature, rng_seed=rng_seed)
+                                sample=sample, ik=False, temperature=temperature, pace=pace, rng_seed=rng_seed)
     on_model = result.rig.to_model(result.motion)  # what the BVH holds, on the model's joints
     n_gen = on_model.n_frames - result.n_seed
     return motion_quality(on_model[result.n_seed + n_gen // 2:], motion_type, refs,
@@ -46,10 +47,11 @@ def file_quality(path, motion_type: str, model, norm, meta, refs: References, se
 def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("files", nargs="*", help="FILE.bvh:TYPE (default: Bandai and CMU walks and runs)")
-    p.add_argument("--model", default="ccnet_phase_lerp")
+    p.add_argument("--model", default=GENERATION_MODEL)
     p.add_argument("--seconds", type=float, default=60.0)
     p.add_argument("--sample", action="store_true")
-    p.add_argument("--temperature", type=float, default=1.0)
+    p.add_argument("--temperature", type=float, default=SAMPLING_TEMPERATURE)
+    p.add_argument("--pace", choices=("seed", "network"), default=PACE)
     a = p.parse_args(argv)
     torch.set_num_threads(1)
     model, norm, meta = load_checkpoint(find_checkpoint(a.model))
@@ -60,12 +62,12 @@ def main(argv=None) -> dict:
     for spec in files:
         path, motion_type = spec.rsplit(":", 1)
         t = time.perf_counter()
-        q = file_quality(path, motion_type, model, norm, meta, refs, a.seconds, a.sample, a.temperature)
+        q = file_quality(path, motion_type, model, norm, meta, refs, a.seconds, a.sample, a.temperature, a.pace)
         q["moves_like_real"] = moves_like_real(q)
         per_file[path] = q
         print(f"{path.split('/')[-1]:34s} {motion_type:6s} " + "  ".join(f"{k} {q[k]:.3f}" for k in QUALITY_KEYS)
               + f"  {'pass' if q['moves_like_real'] else 'FAIL'} ({time.perf_counter() - t:.0f} s)")
-    res = dict(model=a.model, seconds=a.seconds, sample=a.sample, temperature=a.temperature,
+    res = dict(model=a.model, seconds=a.seconds, sample=a.sample, temperature=a.temperature, pace=a.pace,
                passed=sum(q["moves_like_real"] for q in per_file.values()), files=per_file)
     print(json.dumps(res))
     return res

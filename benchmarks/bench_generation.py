@@ -1,14 +1,15 @@
 """CCNet generation speed (incremental vs naive recompute) and pose-level quality, default model, this CPU.
 
-    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_phase_lerp] [--frames 2000] [--repeats 3] [--noise-correlation 0]
+    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_phase_lerp_scale] [--frames 2000] [--repeats 3]
+        [--pace seed|network] [--temperature 0.5] [--noise-correlation 0]
 
 One character and 64 at once, frames per second of the autoregressive loop (network step plus
 feeding the mean back), with the incremental stepper and with naive recomputation of the last
 CRL frames per new frame; max |incremental - full forward| over a generated sequence; and, over
 ten 60 s clips generated free-running from test seeds of locomotion and repeatable motion (walk,
 turning walk, run, jog, sneak, hop, walk-back, side step, waving, dash: issue 9's "Done when"),
-with the mean output and with sampling,
-the pose-level quality of seconds 30-60 (:mod:`mocapviz.tasks.generation_quality`): freezing
+with the mean output and with sampling (the ``generate`` command's pace and temperature unless told
+otherwise: :mod:`mocapviz.tasks.generation_defaults`), the pose-level quality of seconds 30-60 (:mod:`mocapviz.tasks.generation_quality`): freezing
 share, activity and jitter ratios to the real clips of the same type, and the root height
 relative to the seed's (a drifting body shows there). The last line is a JSON object.
 """
@@ -28,6 +29,7 @@ from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from mocapviz.features.phase import paced_phase
 from mocapviz.tasks.generate import Generator
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE
 from mocapviz.tasks.generation_quality import (
     QUALITY_KEYS,
     bench_seeds,
@@ -82,13 +84,17 @@ def time_naive(model, norm, ds, batch, frames, n_seed=30):
 
 def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--model", default="ccnet_phase_lerp")
+    p.add_argument("--model", default=GENERATION_MODEL)
     p.add_argument("--repeats", type=int, default=3, help="timings per path; the best counts (default: %(default)s)")
     p.add_argument("--frames", type=int, default=2000)
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--freeze-seconds", type=float, default=60.0)
     p.add_argument("--noise-correlation", type=float, default=0.0,
                    help="sampling draws' correlation from frame to frame (Generator; 0: the paper's)")
+    p.add_argument("--temperature", type=float, default=SAMPLING_TEMPERATURE,
+                   help="sampling spread (Generator; 1: the model's own; default: %(default)s)")
+    p.add_argument("--pace", choices=("seed", "network"), default=PACE,
+                   help="the free-running plan's speed (Generator; default: %(default)s)")
     a = p.parse_args(argv)
     torch.set_num_threads(a.threads)
     model, norm, _ = zoo.load(a.model)
@@ -117,12 +123,13 @@ def main(argv=None) -> dict:
     full = full_recompute_outputs(model, norm, gen, skel, types, used)
     max_diff = float(np.abs(inc - full).max())
     print(f"max |incremental - full forward| over {inc.shape[1]} frames: {max_diff:.2e}")
-    # pose-level quality: the locomotion seeds, freeze_seconds each, free-running (the network's own c^d)
+    # pose-level quality: the locomotion seeds, freeze_seconds each, free-running (the network's own c^d,
+    # at the seed's pace unless --pace network)
     quality = {}
     for mode in ("mean", "sample"):
         t = time.perf_counter()
         q = generation_quality(model, norm, ds, a.freeze_seconds, sample=mode == "sample",
-                               noise_correlation=a.noise_correlation)
+                               noise_correlation=a.noise_correlation, temperature=a.temperature, pace=a.pace)
         quality[mode] = dict(q["summary"], moves_like_real=sum(map(moves_like_real, q["per_clip"].values())),
                              seeds=len(q["per_clip"]))
         print(f"{mode} output, {len(q['per_clip'])} x {a.freeze_seconds:g} s, second half ({time.perf_counter() - t:.1f} s), "
@@ -133,6 +140,7 @@ def main(argv=None) -> dict:
                fps_naive_single=round(naive1, 1), fps_naive_batch64=round(naive64, 1),
                fps_batch64_by_backend={k: round(v, 1) for k, v in fps64_by.items()},
                max_abs_diff=max_diff, pose_quality=quality, noise_correlation=a.noise_correlation, threads=a.threads,
+               temperature=a.temperature, pace=a.pace,
                repeats=a.repeats,
                model=a.model)
     print(json.dumps(res))

@@ -15,6 +15,7 @@ from pathlib import Path
 from mocapviz.errors import MocapFormatError
 
 from mocapviz.skeleton import SkeletonMapError
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE
 
 USER_ERRORS = (FileNotFoundError, MocapFormatError, SkeletonMapError)  # and GenerateError (imported with torch)
 
@@ -23,7 +24,7 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("generate", help="continue a BVH (or ASF/AMC) seed with a trained model, write BVH",
                        description="Continue your own motion file with CCNet: the output BVH holds the seed "
                                    "frames, then the generated ones, at 60 fps on the seed's own skeleton.")
-    p.add_argument("--model", default="ccnet_phase_lerp",
+    p.add_argument("--model", default=GENERATION_MODEL,
                    help="a .safetensors checkpoint, or a model name looked up in $MOCAPVIZ_ZOO (mocapviz.zoo) and in "
                         "models/zoo/ of the current folder and its parents (default: %(default)s)")
     p.add_argument("--seed", required=True, help="the seed motion: a .bvh file, or an .amc file with --asf")
@@ -45,8 +46,11 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
                       help="sample: draw the model's latent z from its prior (a latent model, such as the default), "
                            "or each frame from the predicted Gaussian")
     mode.add_argument("--mean", dest="sample", action="store_false", help="take its mean (default)")
-    p.add_argument("--temperature", type=float, default=1.0, metavar="T",
+    p.add_argument("--temperature", type=float, default=SAMPLING_TEMPERATURE, metavar="T",
                    help="with --sample, scale the spread of the draws by T: 1 is the model's own (default: %(default)s)")
+    p.add_argument("--pace", choices=("seed", "network"), default=PACE,
+                   help="without --path: hold the speed the model plans at the seed's end (seed), or follow the "
+                        "speed it plans frame by frame (network; runs tend to slow down; default: %(default)s)")
     p.add_argument("--noise-correlation", type=float, default=0.0, metavar="RHO",
                    help="with --sample, the draws' correlation from one frame to the next (0: independent, the "
                         "paper's; every frame stays a draw of its predicted PDF; default: %(default)s)")
@@ -78,7 +82,7 @@ def generate(args) -> None:
                                 switch_every=args.switch_every, path_xz=path, sample=args.sample, ik=args.ik,
                                 seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
                                 skeleton_z=args.skeleton_z, temperature=args.temperature,
-                                noise_correlation=args.noise_correlation, progress=True)
+                                noise_correlation=args.noise_correlation, pace=args.pace, progress=True)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_bvh(result.motion, out)

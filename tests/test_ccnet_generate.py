@@ -15,7 +15,8 @@ from mocapviz.metrics import foot_sliding
 from mocapviz.tasks.generation_quality import locomotion_seeds, real_reference
 from mocapviz.models.ccnet import CCNet
 from mocapviz.models.steppers import CCNetStepper, NumpyStepper
-from mocapviz.tasks.generate import Generator
+from mocapviz.tasks.generate import Generator, at_speed, plan_speed
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL
 
 
 @pytest.fixture(scope="module")
@@ -111,6 +112,8 @@ FROZEN_DEFAULT = pytest.mark.xfail(strict=True, reason="issue 9: ccnet_default (
         strict=True, reason="issue 9: ccnet_phase_lerp keeps the held-out subject's jog from freezing, but it "
                             "jogs nearly in place: 0.37 m/s over the last 5 s against its clip's 1.64")),
     ("ccnet_phase_lerp", "91_02"),
+    ("ccnet_phase_lerp_scale", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
+    ("ccnet_phase_lerp_scale", "91_02"),
 ])
 def test_generated_motion_keeps_moving(ds, name, clip):
     """10 s free-running (the network's own c^d) from a 1 s seed: the held-out subject jogging
@@ -138,16 +141,28 @@ HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
     "(models/README.md: the height anchored to c^s, c^s normalised per body, both) were not better overall"))
 
 
-@pytest.mark.parametrize("clip", [
-    "dataset-2_walk-turn-left_active_005",   # Bandai's body
-    "91_02",                                 # CMU 91: 0.81 m standing root height, Bandai's is 0.83
-    pytest.param("HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=HEIGHT_DROP),
-    pytest.param("35_01", marks=HEIGHT_DROP),   # CMU 35: 0.97 m
+# every body at many sizes (body_scale): the scaled model reads a body's size, but not yet to the
+# centimetre at the seed's end (models/README.md, "Every body at many sizes")
+SCALED_HEIGHT_JUMP = pytest.mark.xfail(strict=True, reason=(
+    "issue 9: ccnet_phase_lerp_scale (trained on every body at 0.9-1.25x its size) keeps the held-out tr "
+    "jog's root height at the seed's end, but moves others on the first generated frame: the Bandai walk "
+    "0.864 -> 0.901 m, CMU 91 (the shortest body) 0.849 -> 0.953, CMU 35 (the tallest) 1.000 -> 0.924 (ccnet_phase_lerp: 0.81)"))
+
+
+@pytest.mark.parametrize("name, clip", [
+    ("ccnet_phase_lerp", "dataset-2_walk-turn-left_active_005"),   # Bandai's body
+    ("ccnet_phase_lerp", "91_02"),                                 # CMU 91: 0.81 m standing root height, Bandai's is 0.83
+    pytest.param("ccnet_phase_lerp", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=HEIGHT_DROP),
+    pytest.param("ccnet_phase_lerp", "35_01", marks=HEIGHT_DROP),   # CMU 35: 0.97 m
+    pytest.param("ccnet_phase_lerp_scale", "dataset-2_walk-turn-left_active_005", marks=SCALED_HEIGHT_JUMP),
+    pytest.param("ccnet_phase_lerp_scale", "91_02", marks=SCALED_HEIGHT_JUMP),
+    ("ccnet_phase_lerp_scale", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
+    pytest.param("ccnet_phase_lerp_scale", "35_01", marks=SCALED_HEIGHT_JUMP),
 ])
-def test_first_generated_frame_keeps_the_bodys_root_height(ds, clip):
+def test_first_generated_frame_keeps_the_bodys_root_height(ds, clip, name):
     """The first generated frame continues the seed's root height (a real root moves millimetres
     per frame at 60 fps): a body other than Bandai's must not sink or rise at the seed's end."""
-    model, norm, _ = zoo.load("ccnet_phase_lerp", retrain_if_missing=False)
+    model, norm, _ = zoo.load(name, retrain_if_missing=False)
     row, x, traj, skel, ti = seed_inputs(ds, clip, 48)
     out = Generator(model, norm).run(x, skel, one_hot([ti], model.cfg.n_types), 5, seed_traj=traj)
     r = ds.clips.iloc[row]
@@ -342,3 +357,66 @@ def test_nan_seed_controls_are_the_networks_own(ds, committed):
     tail[:, 20:] = np.nan
     own, given, mixed = run(np.full_like(traj, np.nan)), run(traj), run(tail)
     assert not np.array_equal(mixed[:, 40:], given[:, 40:]) and not np.array_equal(mixed[:, 40:], own[:, 40:])
+
+
+def test_plan_speed_and_at_speed_on_hand_made_plans():
+    """A plan 0.2 m further every 10 frames (60 fps) is 1.2 m/s; one 0.6 m to the side at frame
+    10, then 0.6 m straight ahead of the root from frame 20 on, covers 0.6 + 0.6 sqrt(2) m in its second; at_speed scales the
+    points about the root to the asked speed and leaves the phase columns alone; a still plan has no
+    direction to stretch and stays still."""
+    ahead = np.zeros((1, 14), np.float32)
+    ahead[0, 1:12:2] = 0.2 * np.arange(1, 7)                      # z ahead of the root
+    ahead[0, 12:] = (0.6, 0.8)                                     # a phase model's (sin, cos)
+    corner = np.zeros((1, 12), np.float32)
+    corner[0, 0] = 0.6                                             # x: 0.6 m to the side at frame 10
+    corner[0, 3::2] = 0.6                                          # z: 0.6 m ahead from frame 20 on
+    np.testing.assert_allclose(plan_speed(ahead), [1.2], rtol=1e-6)
+    np.testing.assert_allclose(plan_speed(corner), [0.6 + 0.6 * np.sqrt(2)], rtol=1e-6)
+    slow = at_speed(np.concatenate([ahead[:, :12], corner]), np.array([0.3, 2.0]))
+    np.testing.assert_allclose(plan_speed(slow), [0.3, 2.0], rtol=1e-6)
+    np.testing.assert_allclose(slow[0], ahead[0, :12] * 0.25, rtol=1e-6)
+    np.testing.assert_array_equal(at_speed(ahead, np.array([0.3]))[0, 12:], ahead[0, 12:])
+    assert not at_speed(np.zeros((1, 12), np.float32), np.array([1.5])).any()
+
+
+def test_seed_pace_feeds_the_networks_plan_at_the_seeds_last_speed(ds):
+    """pace="seed": every generated frame is fed the network's predicted c^d scaled to the speed of
+    the seed's last c^d (a phase model: its phase columns as without pace), and the stepper's
+    outputs equal one full forward pass over those controls."""
+    model, norm, _ = zoo.load(GENERATION_MODEL, retrain_if_missing=False)
+    d = ds.with_vocabulary(model.cfg.n_types)
+    _, x, traj, skel, ti = seed_inputs(d, "dataset-2_run_masculine_047", 48)
+    types = one_hot([ti], model.cfg.n_types)
+    g = Generator(model, norm, pace="seed")
+    g.keep_outputs = True
+    gen = g.run(x, skel, types, 120, seed_traj=traj)
+    inc, pred = step_outputs(g.raw_outputs, model.cfg)
+    s, n_plan = x.shape[1], len(norm.traj_mean)
+    speed = plan_speed(traj[:, s - 1])
+    assert speed[0] > 2.0  # a run
+    plans = at_speed((pred[0, s - 2:-1, :n_plan] * norm.traj_std + norm.traj_mean), np.repeat(speed, len(pred[0]) - s + 1))
+    used = controls_used(gen, traj, pred, norm, model.cfg)
+    used[0, s - 1:, :n_plan] = norm.norm_traj(plans)
+    with torch.inference_mode():
+        full = full_recompute_outputs(model, norm, gen, skel, types, used)
+    assert np.abs(inc - full).max() < 1e-5
+    np.testing.assert_allclose(plan_speed(plans), speed[0], rtol=1e-5)
+    with pytest.raises(ValueError, match="pace"):
+        Generator(model, norm, pace="user")
+
+
+def test_seed_pace_keeps_a_run_running(ds):
+    """A held-out Bandai run seed, 20 s with the generate command's model, mean output, last 5 s:
+    fed its own plan the network slows to about half the seed plan's ground speed (0.46x
+    measured); at the seed's pace it keeps running (0.84x measured)."""
+    model, norm, _ = zoo.load(GENERATION_MODEL, retrain_if_missing=False)
+    d = ds.with_vocabulary(model.cfg.n_types)
+    row, x, traj, skel, ti = seed_inputs(d, "dataset-2_run_masculine_047", 48)
+    r = d.clips.iloc[row]
+    target = plan_speed(traj[:, -1])[0]
+    last5 = {}
+    for pace in ("network", "seed"):
+        gen = Generator(model, norm, pace=pace).run(x, skel, one_hot([ti], model.cfg.n_types), 1200, seed_traj=traj)
+        root = gen.motion(0, d.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False).root_positions
+        last5[pace] = np.linalg.norm(np.diff(root[-300:, [0, 2]], axis=0), axis=1).sum() / 5.0 / target
+    assert last5["network"] < 0.6 and 0.75 < last5["seed"] < 1.25, last5

@@ -10,7 +10,8 @@ control c^d comes from one of:
 - ``traj``: an array of raw c^d per frame (e.g. taken from a clip; repeated cyclically);
 - ``path``: a user path of world ground points (X, Z) per frame; c^d is recomputed every frame
   from the character's integrated root and heading, so the character steers onto the path;
-- neither: the network's own predicted c^d (free-running, the paper's interactive fallback).
+- neither: the network's own predicted c^d (free-running, the paper's interactive fallback), as
+  predicted or (``pace="seed"``) scaled to the speed of the seed's last c^d (:func:`at_speed`).
 
 A CCNet with a phase (``CCNetConfig.phase``) sees the seed's local phase
 (:func:`mocapviz.features.phase.paced_phase`, from the seed frames alone), then the phase turning
@@ -51,6 +52,26 @@ class Generated:
         return remove_foot_sliding(m, m.meta["contacts"]) if ik else m
 
 
+def plan_speed(c_d: np.ndarray) -> np.ndarray:
+    """Ground speed (m/s) a raw c^d (B, >= 12) plans: the length of the path through its six
+    points (root, then 10, 20, ..., 60 frames ahead), over the one second they span."""
+    pts = np.concatenate([np.zeros((len(c_d), 1, 2), np.float32), c_d[:, :2 * len(TRAJ_STEPS)].reshape(len(c_d), -1, 2)], 1)
+    return np.linalg.norm(np.diff(pts, axis=1), axis=-1).sum(1) * FPS / TRAJ_STEPS[-1]
+
+
+# plans slower than this (m/s) have no direction to keep: at_speed scales them by pace / this at most
+MIN_PLAN_SPEED = 0.05
+
+
+def at_speed(c_d: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """Raw c^d (B, 12) with its six points scaled about the root so that it plans ``speed`` (B,)
+    m/s: the paper's interactive velocity control (§4.4: the points' spacing times v_u / v_cur)."""
+    ratio = speed / np.maximum(plan_speed(c_d), MIN_PLAN_SPEED)
+    out = c_d.copy()
+    out[:, :2 * len(TRAJ_STEPS)] *= ratio[:, None].astype(np.float32)
+    return out
+
+
 def path_controls(path_xz: np.ndarray, n: int, root_xz: np.ndarray, heading: np.ndarray) -> np.ndarray:
     """c^d (B, 12) at frame n: path points n+10..n+60 relative to the root, in its heading frame."""
     idx = np.minimum(n + np.asarray(TRAJ_STEPS), path_xz.shape[1] - 1)
@@ -68,7 +89,7 @@ class Generator:
 
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
                  seed: int = 0, backend: str = "auto", temperature: float = 1.0, noise_correlation: float = 0.0,
-                 phase_source: str = "seed_pace"):
+                 phase_source: str = "seed_pace", pace: str = "network"):
         if temperature < 0:
             raise ValueError(f"temperature must be >= 0, got {temperature}")
         if not 0.0 <= noise_correlation < 1.0:
@@ -93,6 +114,14 @@ class Generator:
         if phase_source not in ("seed_pace", "network"):
             raise ValueError(f"phase_source must be 'seed_pace' or 'network', got {phase_source!r}")
         self.phase_source = phase_source
+        # the ground speed of a free-running plan (the network's own c^d): "network", as predicted;
+        # "seed", rescaled every frame to the speed of the c^d the last seed frame was fed (at_speed:
+        # the paper's interactive velocity control, §4.4, with the user's speed the seed's). Why: fed
+        # back, the predicted plan slows (issue 9: ccnet_phase_lerp's test run seed at 0.27x the real
+        # runs' ground speed over seconds 30-60; held, 0.82x)
+        if pace not in ("network", "seed"):
+            raise ValueError(f"pace must be 'network' or 'seed', got {pace!r}")
+        self.pace = pace
         self._noise = None
         self._z_past = []
         self.rng = np.random.default_rng(seed)
@@ -216,6 +245,8 @@ class Generator:
             root_xz = np.asarray(start_root, dtype=np.float64)[:, [0, 2]].copy()
             heading = np.asarray(start_heading, dtype=np.float64).copy()
         pred_traj = np.zeros((b, self.cfg.n_traj), dtype=np.float32)
+        speed = None  # with pace "seed": the speed of the plan the last seed frame was generated under
+        n_plan = len(norm.traj_mean)  # c^d's ground points (a phase model's phase follows them)
         phase = None
         if self.cfg.phase:
             phase = paced_phase(seed_x, self.layout, total)
@@ -232,6 +263,8 @@ class Generator:
                 c_next = traj_n[:, (t + 1) % traj_n.shape[1]]
             elif path is not None:
                 c_next = norm.norm_traj(path_controls(path, t + 1, root_xz, heading))
+            elif speed is not None:
+                c_next = norm.norm_traj(at_speed(pred_traj[:, :n_plan] * norm.traj_std + norm.traj_mean, speed))
             else:
                 c_next = pred_traj
             if t + 1 < s and seed_n is not None:  # the seed's own c^d where it has one (not NaN)
@@ -241,6 +274,8 @@ class Generator:
                 if t + 1 >= s and self.phase_source == "network":
                     phase[:, t + 1] = on_circle(pred_traj[:, -2:])
                 c_next = np.concatenate([c_next[:, :self.cfg.n_traj - 2], phase[:, t + 1]], axis=1)
+            if self.pace == "seed" and t + 2 == s:
+                speed = plan_speed(c_next[:, :n_plan] * norm.traj_std + norm.traj_mean)
             raw = self._step(x_t, np.ascontiguousarray(c_next), t)
             # a view of raw: the residual channels get g x_t added in place
             self.cfg.add_residual(raw[:, self.parts["mean"]], x_t)

@@ -27,6 +27,7 @@ from mocapviz.io.tpose import leading_tpose_frames
 from mocapviz.motion import Motion
 from mocapviz.skeleton import SkeletonMapError, map_to_ccnet25
 from mocapviz.tasks.generate import Generator
+from mocapviz.tasks.generation_defaults import PACE, SAMPLING_TEMPERATURE
 from mocapviz.tasks.rig import ModelRig
 
 STANDARD_ORDERS = ("ZXY", "ZYX")  # rotation channel orders every BVH tool reads (Blender, MotionBuilder)
@@ -145,8 +146,8 @@ def seed_rig(seed: Motion, names: dict, dataset_meta: dict, normaliser) -> Model
 def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk",), seconds: float = 10.0,
                        switch_every: float | None = None, path_xz=None, sample: bool = False, ik: bool = True,
                        seed_seconds: float = 2.0, joint_map=None, rng_seed: int = 0, skeleton_z: float = 3.0,
-                       temperature: float = 1.0, noise_correlation: float = 0.0,
-                       progress: bool = False) -> SeedGeneration:
+                       temperature: float = SAMPLING_TEMPERATURE, noise_correlation: float = 0.0,
+                       pace: str = PACE, progress: bool = False) -> SeedGeneration:
     """Continue ``seed`` (a Motion on any skeleton, e.g. from :func:`load_seed`) for ``seconds``.
 
     ``model``, ``normaliser``, ``meta``: a loaded checkpoint (its ``meta['dataset']`` gives the
@@ -157,8 +158,9 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     over the automatic name map; ``skeleton_z``: how far (training standard deviations) c^s
     may lie from the training skeletons' mean (see :func:`limit_skeleton`); ``temperature``:
     with ``sample``, frames are drawn from N(mean, (temperature * sigma)^2) (a latent model
-    draws z instead); ``noise_correlation``: the draws' correlation from frame to frame
-    (:class:`mocapviz.tasks.generate.Generator`).
+    draws z instead); ``noise_correlation``: the draws' correlation from frame to frame;
+    ``pace``: without a path, "seed" holds the speed of the plan at the seed's end, "network"
+    feeds the network's own plan as predicted (:class:`mocapviz.tasks.generate.Generator`).
 
     The network sees the seed scaled into the training skeletons' root heights (:func:`seen_scale`;
     the output is scaled back) and its c^s limited to ``skeleton_z`` (:func:`limit_skeleton`): a
@@ -195,7 +197,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
         ahead = path_points(path_xz, n_gen) * size + end_root[[0, 2]]
         path = np.concatenate([seen.root_positions[1:, [0, 2]], ahead])[None]
     gen = Generator(model, normaliser, sample=sample, seed=rng_seed, temperature=temperature,
-                    noise_correlation=noise_correlation).run(
+                    noise_correlation=noise_correlation, pace=pace).run(
         feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
         seed_traj=seed_controls(feats.traj)[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
         progress=progress)
