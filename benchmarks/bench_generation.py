@@ -42,10 +42,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from ccnet_reference import controls_used, full_recompute_outputs, step_outputs  # noqa: E402 - the tests' reference
 
 
-def time_incremental(model, norm, ds, batch, frames, n_seed=30, backend="auto"):
+def time_incremental(model, norm, ds, batch, frames, n_seed=30, backend="auto", pace="network"):
     rows = (bench_seeds(ds) * (batch // 10 + 1))[:batch]
     x, traj, skel, types = seed_batch(ds, rows, n_seed, model.cfg.n_types)
-    g = Generator(model, norm, batch=batch, backend=backend)
+    g = Generator(model, norm, batch=batch, backend=backend, pace=pace)
     g.run(x, skel, types, 50, seed_traj=traj)  # warm up
     t = time.perf_counter()
     out = g.run(x, skel, types, frames, seed_traj=traj)
@@ -102,10 +102,12 @@ def main(argv=None) -> dict:
     ds = build_dataset(DatasetConfig(), progress=False).with_vocabulary(model.cfg.n_types)
     # best of a.repeats timings for each path (as timeit): the least disturbed by other work on a
     # shared machine (one 2000-frame timing of the same code varied 3,900-5,500 frames/s here)
-    fps1, out1, (x, traj, skel, types) = max((time_incremental(model, norm, ds, 1, a.frames) for _ in range(a.repeats)),
+    # (timed at --pace: the generate command's default holds the plan's speed, a few numpy calls a frame)
+    fps1, out1, (x, traj, skel, types) = max((time_incremental(model, norm, ds, 1, a.frames, pace=a.pace)
+                                              for _ in range(a.repeats)),
                                              key=lambda r: r[0])
     print(f"incremental, 1 character : {fps1:10.0f} frames/s")
-    fps64_by = {b: time_incremental(model, norm, ds, 64, max(200, a.frames // 5), backend=b)[0]
+    fps64_by = {b: time_incremental(model, norm, ds, 64, max(200, a.frames // 5), backend=b, pace=a.pace)[0]
                 for b in ("torch", "numpy")}
     for b, v in fps64_by.items():
         print(f"incremental, 64 characters ({b}): {v:10.0f} frames/s")

@@ -52,6 +52,7 @@ from mocapviz.metrics import foot_sliding
 from mocapviz.models.ccnet_config import receptive_field
 from mocapviz.models.protocol import count_parameters
 from mocapviz.tasks.generate import Generator
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, SAMPLING_TEMPERATURE
 from mocapviz.tasks.generation_quality import (
     QUALITY_KEYS,
     SEED_FRAMES,
@@ -524,6 +525,56 @@ for kind, clip in shown.items():
     display(Image(filename=str(path)))
 
 # %% [markdown]
+# ## 5f · The `generate` command's model: every body at many sizes, at the seed's pace
+#
+# Two things the seeds above show went wrong, and what `mocapviz generate` does about them:
+#
+# * **The body.** 90 % of the training frames are Bandai's one body, and `ccnet_phase_lerp`
+#   learnt its root height, not the body's: the held-out HDM05 subject sinks and bends its knees.
+#   The command's model, `ccnet_phase_lerp_scale` (config `phase_lerp_scale`), trained on every
+#   window's body and motion scaled by a random factor in 0.9-1.25 (`TrainConfig.body_scale`,
+#   `WindowData.scaled`: exact, the same rotations on longer bones), so it sees root height,
+#   pace and $\mathbf c^s$ change together.
+# * **The pace.** Free-running, the network's own plan $\hat{\mathbf c}^d$ is fed back to it, and
+#   where it plans a little slower than it goes, it slows down: runs end up jogging in place.
+#   `pace="seed"` (`Generator`, `mocapviz.tasks.generate.at_speed`) scales each predicted plan to
+#   the speed of the plan the seed's last frame had, as the paper's interactive control scales
+#   the plan to the user's speed (§4.4); the direction stays the network's.
+#
+# The same ten test seeds, mean output and sampled (the command's temperature, chosen on the
+# validation seeds, `mocapviz.tasks.generation_defaults`), with the network's own pace and held:
+
+# %%
+cmd_model, cmd_norm, _ = zoo.load(GENERATION_MODEL, retrain_if_missing=False)
+runs = {(pace, mode): generation_quality(cmd_model, cmd_norm, ds, secs, sample=mode == "sample", banks=banks,
+                                        pace=pace, temperature=SAMPLING_TEMPERATURE)
+        for pace in ("network", "seed") for mode in ("mean", "sample")}
+runs["seed", "sample at temperature 1"] = generation_quality(cmd_model, cmd_norm, ds, secs, sample=True, banks=banks,
+                                                             pace="seed")
+for (pace, mode), q in runs.items():
+    c = q["per_clip"]
+    print(f"{GENERATION_MODEL}, pace {pace:7s}, {mode:26s}: {sum(map(within_issue_bar, c.values()))} of {len(c)} "
+          f"within the issue's bar, {sum(map(moves_like_real, c.values()))} move like the real clips; root speed "
+          f"{min(v['root_speed_ratio'] for v in c.values()):.2f}-{max(v['root_speed_ratio'] for v in c.values()):.2f}x")
+print(pd.concat({f"{pace}, {mode}": pd.DataFrame(q["per_clip"]).T[["activity_ratio", "jitter_ratio", "root_speed_ratio",
+                                                                  "root_height_ratio"]]
+                 for (pace, mode), q in runs.items() if mode == "mean"}, axis=1).round(2))
+
+# %% [markdown]
+# Look: the held-out subject's jog and the Bandai run, mean output at the seed's pace, the last 2 s
+# of the generation:
+
+# %%
+for clip, c in runs["seed", "mean"]["per_clip"].items():
+    if c["type"] != "jog":
+        continue
+    path = fig_dir / f"ccnet_command_{clip}_strip.png"
+    scene.frame_strip(runs["seed", "mean"]["motions"][clip][-120:], path, n=8)
+    print(f"{clip}: activity {c['activity_ratio']:.2f}x, jitter {c['jitter_ratio']:.2f}x, root speed "
+          f"{c['root_speed_ratio']:.2f}x, root height {c['root_height_ratio']:.2f}x the seed's")
+    display(Image(filename=str(path)))
+
+# %% [markdown]
 # ## 6 · How this compares with the paper
 #
 # * **Data.** The paper trains on 486k frames of 12 subjects with long, mixed recordings. Dataset
@@ -535,9 +586,10 @@ for kind, clip in shown.items():
 # * **Generation.** The paper generates "more than 20,000 frames" of motion that does not freeze.
 #   Without a phase, ours froze on most seeds with the mean output (section 5 prints
 #   `ccnet_default`'s and `ccnet_wide`'s counts); section 5d prints `ccnet_phase_lerp`'s with the phase
-#   fed either way. What the numbers do not show, the film strips do: the held-out HDM05 subject's
+#   fed either way. What the numbers do not show, the film strips do: with `ccnet_phase_lerp` the held-out HDM05 subject's
 #   body keeps moving, its legs stepping under a body that leans back with the knees bent
-#   forward, and it jogs and hops nearly in place (root speed). (Until the foot IK re-planted a
+#   forward, and it jogs and hops nearly in place (root speed); section 5f shows the `generate`
+#   command's model on the same seeds. (Until the foot IK re-planted a
 #   held foot that drifts more than `mocapviz.ik.MAX_SLIP`, the IK pinned the feet of a body
 #   gliding with both feet labelled in contact and stretched its legs out level behind it; the
 #   raw network output never did that.) Sampling draws $z$ and writes the decoder's mean, which is far

@@ -420,3 +420,19 @@ def test_seed_pace_keeps_a_run_running(ds):
         root = gen.motion(0, d.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False).root_positions
         last5[pace] = np.linalg.norm(np.diff(root[-300:, [0, 2]], axis=0), axis=1).sum() / 5.0 / target
     assert last5["network"] < 0.6 and 0.75 < last5["seed"] < 1.25, last5
+
+
+def test_seed_pace_ends_where_the_motion_type_changes(ds):
+    """A type schedule that switches at the first generated frame leaves the seed's pace behind:
+    the generation equals the network's own pace (a walk turned run must not keep the walk's
+    speed), while without a switch the held pace changes the frames."""
+    model, norm, _ = zoo.load(GENERATION_MODEL, retrain_if_missing=False)
+    d = ds.with_vocabulary(model.cfg.n_types)
+    _, x, traj, skel, ti = seed_inputs(d, "dataset-2_walk_active_019", 48)
+    run = d.meta["motion_types"].index("jog")
+    switched = one_hot([ti] * 48 + [run] * 60, model.cfg.n_types)[None]
+    kept = one_hot([ti] * 108, model.cfg.n_types)[None]
+    gen = {(pace, name): Generator(model, norm, pace=pace).run(x, skel, types, 60, seed_traj=traj).x
+           for pace in ("seed", "network") for name, types in (("switched", switched), ("kept", kept))}
+    np.testing.assert_array_equal(gen["seed", "switched"], gen["network", "switched"])
+    assert not np.allclose(gen["seed", "kept"], gen["network", "kept"])

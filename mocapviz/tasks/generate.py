@@ -116,9 +116,10 @@ class Generator:
         self.phase_source = phase_source
         # the ground speed of a free-running plan (the network's own c^d): "network", as predicted;
         # "seed", rescaled every frame to the speed of the c^d the last seed frame was fed (at_speed:
-        # the paper's interactive velocity control, §4.4, with the user's speed the seed's). Why: fed
+        # the paper's interactive velocity control, §4.4, with the user's speed the seed's), until
+        # the character's motion type changes (a run after a walk has its own pace). Why: fed
         # back, the predicted plan slows (issue 9: ccnet_phase_lerp's test run seed at 0.27x the real
-        # runs' ground speed over seconds 30-60; held, 0.82x)
+        # runs' ground speed over seconds 30-60; held, 0.84x)
         if pace not in ("network", "seed"):
             raise ValueError(f"pace must be 'network' or 'seed', got {pace!r}")
         self.pace = pace
@@ -252,6 +253,8 @@ class Generator:
             phase = paced_phase(seed_x, self.layout, total)
         for t in tqdm(range(total - 1), desc="generate", disable=not progress):
             if per_frame_types and not np.array_equal(types[:, t + 1], cur_type):
+                if speed is not None:  # a new motion type has its own pace: the network's plan from here on
+                    speed[(types[:, t + 1] != cur_type).any(axis=1)] = np.nan
                 cur_type = types[:, t + 1]
                 set_static(skel_n, cur_type)
             x_t = xs[:, t]
@@ -263,8 +266,9 @@ class Generator:
                 c_next = traj_n[:, (t + 1) % traj_n.shape[1]]
             elif path is not None:
                 c_next = norm.norm_traj(path_controls(path, t + 1, root_xz, heading))
-            elif speed is not None:
-                c_next = norm.norm_traj(at_speed(pred_traj[:, :n_plan] * norm.traj_std + norm.traj_mean, speed))
+            elif speed is not None:  # the plan at the held speed (NaN: as predicted)
+                held = norm.norm_traj(at_speed(pred_traj[:, :n_plan] * norm.traj_std + norm.traj_mean, np.nan_to_num(speed)))
+                c_next = np.where(np.isnan(speed)[:, None], pred_traj[:, :n_plan], held)
             else:
                 c_next = pred_traj
             if t + 1 < s and seed_n is not None:  # the seed's own c^d where it has one (not NaN)

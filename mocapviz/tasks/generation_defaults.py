@@ -2,15 +2,16 @@
 torch import: ``mocapviz generate --help`` shows them at once). A :class:`~mocapviz.tasks.generate.Generator`'s
 own defaults are the model's plain output: its own plan (pace "network") and temperature 1."""
 
-# models/README.md ("Every body at many sizes"): the first model within issue 9's bar on every
-# test seed with its mean output
+# trained on every body at many sizes, it keeps a body it has not seen at its own height, where
+# ccnet_phase_lerp sinks it (models/README.md, "Holding the pace", says what each costs)
 GENERATION_MODEL = "ccnet_phase_lerp_scale"
 
 # "seed": without a path, hold the speed of the plan (c^d) at the seed's end. With the network's own
-# plan fed back frame by frame, ccnet_phase_lerp's Bandai runs slowed to 0.27x the real runs' ground
-# speed; held, 0.82-1.04x (issue 9, test and validation seeds)
+# plan fed back frame by frame, ccnet_phase_lerp's Bandai run test seed slowed to 0.27x the real
+# runs' ground speed over seconds 30-60; held, 0.84x (issue 9)
 PACE = "seed"
 
-# Sampling spread: chosen on the 9 validation seeds, where ccnet_phase_lerp's sampled waving shakes
-# at 1 and 0.7 (jitter 4.7x and 3.2x the real clips', over the issue's bar of 3) and not at 0.5 (2.3x)
+# Sampling spread: chosen on the 9 validation seeds (pace "seed"), where the sampled waving shakes at
+# 1 and 0.7 (jitter 4.7x and 3.2x the real clips' with ccnet_phase_lerp, 4.9x and 3.5x with
+# ccnet_phase_lerp_scale: over the issue's bar of 3) and not at 0.5 (2.3x, 2.7x)
 SAMPLING_TEMPERATURE = 0.5
