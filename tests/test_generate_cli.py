@@ -25,6 +25,7 @@ from mocapviz.io.tpose import leading_tpose_frames
 from mocapviz.tasks.generate_bvh import (GenerateError, generate_from_seed, limit_skeleton, load_seed, path_points,
                                          type_schedule)
 from mocapviz.training.checkpoint import load_checkpoint
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL
 
 ROOT = Path(__file__).resolve().parent.parent
 CMU_WALK = ("cmu/35/35_01.bvh", None)                                    # 120 fps, T-pose frame 0
@@ -332,10 +333,26 @@ def test_a_brisk_walk_seed_keeps_a_walkers_pace(data_dir):
     the seed's pace. With the seed's extrapolated c^d in its last second (before seed_controls)
     it broke into a run at 3.2 m/s."""
     from mocapviz import metrics
-    model, norm, meta = load_checkpoint(repo_zoo.committed_path("ccnet_phase_lerp"))
+    model, norm, meta = load_checkpoint(repo_zoo.committed_path(GENERATION_MODEL))
     seed = load_seed(data_dir / "bandai/dataset-1/dataset-1_walk_active_001.bvh")
     result = generate_from_seed(seed, model, norm, meta, types=["walk"], seconds=10.0, ik=False)
     m = result.rig.to_model(result.motion)
     seed_speed = metrics.root_speed(m.root_positions[:result.n_seed], m.fps)
     speed = metrics.root_speed(m.root_positions[result.n_seed + 120:], m.fps)
     assert 0.6 * seed_speed < speed < 1.4 * seed_speed, (seed_speed, speed)
+
+
+def test_pace_option_holds_or_follows_the_plan(data_dir, tmp_path, capsys):
+    """--pace seed (the default) and --pace network write the same seed frames and different
+    generated ones; an unknown pace is an argparse error."""
+    files = {}
+    for pace in ("seed", "network"):
+        files[pace] = tmp_path / f"{pace}.bvh"
+        code, err = run_cli(capsys, "--seed", seed_paths(data_dir, "bandai")[0], "--seconds", "1", "--no-ik",
+                            "--pace", pace, "--out", str(files[pace]))
+        assert code == 0, err
+    held, own = read_bvh(files["seed"]), read_bvh(files["network"])
+    np.testing.assert_array_equal(held.rotations[:120], own.rotations[:120])
+    assert not np.array_equal(held.positions()[120:], own.positions()[120:])  # (a walk: by millimetres in 1 s)
+    with pytest.raises(SystemExit):
+        main(["generate", "--seed", "x.bvh", "--out", "y.bvh", "--pace", "user"])
