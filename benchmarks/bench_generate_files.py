@@ -23,7 +23,7 @@ import torch
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from data_prep.sources import find_data_dir
 from mocapviz.tasks.generate_bvh import generate_from_seed, load_seed
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE
 from mocapviz.tasks.generation_quality import QUALITY_KEYS, References, motion_quality, moves_like_real
 from mocapviz.training.checkpoint import load_checkpoint
 from mocapviz.zoo import find_checkpoint
@@ -51,7 +51,7 @@ def main(argv=None) -> dict:
     p.add_argument("--seconds", type=float, default=60.0)
     p.add_argument("--sample", action="store_true")
     p.add_argument("--temperature", type=float, default=SAMPLING_TEMPERATURE)
-    p.add_argument("--pace", choices=("seed", "network"), default=PACE)
+    p.add_argument("--pace", choices=PACES, default=PACE)
     a = p.parse_args(argv)
     torch.set_num_threads(1)
     model, norm, meta = load_checkpoint(find_checkpoint(a.model))

@@ -29,7 +29,7 @@ from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from mocapviz.features.phase import paced_phase
 from mocapviz.tasks.generate import Generator
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE
 from mocapviz.tasks.generation_quality import (
     QUALITY_KEYS,
     bench_seeds,
@@ -93,7 +93,7 @@ def main(argv=None) -> dict:
                    help="sampling draws' correlation from frame to frame (Generator; 0: the paper's)")
     p.add_argument("--temperature", type=float, default=SAMPLING_TEMPERATURE,
                    help="sampling spread (Generator; 1: the model's own; default: %(default)s)")
-    p.add_argument("--pace", choices=("seed", "network"), default=PACE,
+    p.add_argument("--pace", choices=PACES, default=PACE,
                    help="the free-running plan's speed (Generator; default: %(default)s)")
     a = p.parse_args(argv)
     torch.set_num_threads(a.threads)

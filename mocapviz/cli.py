@@ -15,7 +15,7 @@ from pathlib import Path
 from mocapviz.errors import MocapFormatError
 
 from mocapviz.skeleton import SkeletonMapError
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE
 
 USER_ERRORS = (FileNotFoundError, MocapFormatError, SkeletonMapError)  # and GenerateError (imported with torch)
 
@@ -48,7 +48,7 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     mode.add_argument("--mean", dest="sample", action="store_false", help="take its mean (default)")
     p.add_argument("--temperature", type=float, default=SAMPLING_TEMPERATURE, metavar="T",
                    help="with --sample, scale the spread of the draws by T: 1 is the model's own (default: %(default)s)")
-    p.add_argument("--pace", choices=("seed", "network"), default=PACE,
+    p.add_argument("--pace", choices=PACES, default=PACE,
                    help="without --path: hold the speed the model plans at the seed's end (seed), or follow the "
                         "speed it plans frame by frame (network; runs tend to slow down; default: %(default)s)")
     p.add_argument("--noise-correlation", type=float, default=0.0, metavar="RHO",

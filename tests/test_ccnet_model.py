@@ -167,6 +167,21 @@ def test_normaliser_height_anchor_is_the_standing_root_height():
     np.testing.assert_allclose(o * nm.x_std[h] + nm.x_mean[h], [1.02], rtol=1e-5)
 
 
+def test_denorm_traj_inverts_norm_traj_and_drops_the_phase_columns():
+    """A phase model's c^d (12 ground points, then an unnormalised (sin, cos)) comes back as the
+    raw ground points."""
+    from mocapviz.features.ccnet import FeatureLayout
+    layout = FeatureLayout(n_joints=25)
+    rng = np.random.default_rng(1)
+    traj = rng.normal(0.5, 0.3, (200, 12)).astype(np.float32)
+    nm = Normaliser.fit(rng.normal(size=(200, layout.n_x)).astype(np.float32),
+                        rng.normal(size=(200, layout.n_skel)).astype(np.float32), traj, layout.n_x - 2)
+    with_phase = np.concatenate([nm.norm_traj(traj[:3]), [[0.6, 0.8]] * 3], axis=1)
+    back = nm.denorm_traj(with_phase)
+    assert back.shape == (3, 12)
+    np.testing.assert_allclose(back, traj[:3], atol=1e-6)
+
+
 def test_per_body_normaliser_counts_each_body_once():
     """Normaliser.per_body: c^s statistics over the distinct bodies, however many frames each has."""
     rng = np.random.default_rng(1)

@@ -274,6 +274,11 @@ class Normaliser:
     def norm_traj(self, t):
         return ((np.asarray(t) - self.traj_mean) / self.traj_std).astype(np.float32)
 
+    def denorm_traj(self, t):
+        """Raw c^d ground points (..., 12) of normalised c^d (..., >= 12: a phase model's phase
+        columns follow the points, unnormalised, and are left out)."""
+        return (np.asarray(t)[..., :len(self.traj_mean)] * self.traj_std + self.traj_mean).astype(np.float32)
+
     def state_dict(self) -> dict[str, np.ndarray]:
         return {k: np.asarray(v, dtype=np.float32) for k, v in self.__dict__.items()}
 

@@ -135,7 +135,7 @@ class ControlSession:
 
     def predicted_traj(self) -> np.ndarray:
         """The model's own c^d for the next frame, raw (12,)."""
-        return self.pred_traj[0] * self.norm.traj_std + self.norm.traj_mean
+        return self.norm.denorm_traj(self.pred_traj[0])
 
     def step(self, types=None, turn: float = 0.0, speed: float = np.nan) -> np.ndarray:
         """One frame under the given controls; returns it raw (n_x,)."""

@@ -36,6 +36,7 @@ from mocapviz.ik import remove_foot_sliding
 from mocapviz.models.ccnet import CCNet, ar_prior
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
+from mocapviz.tasks.generation_defaults import PACES
 
 
 @dataclass
@@ -120,8 +121,8 @@ class Generator:
         # the character's motion type changes (a run after a walk has its own pace). Why: fed
         # back, the predicted plan slows (issue 9: ccnet_phase_lerp's test run seed at 0.27x the real
         # runs' ground speed over seconds 30-60; held, 0.84x)
-        if pace not in ("network", "seed"):
-            raise ValueError(f"pace must be 'network' or 'seed', got {pace!r}")
+        if pace not in PACES:
+            raise ValueError(f"pace must be one of {PACES}, got {pace!r}")
         self.pace = pace
         self._noise = None
         self._z_past = []
@@ -247,7 +248,6 @@ class Generator:
             heading = np.asarray(start_heading, dtype=np.float64).copy()
         pred_traj = np.zeros((b, self.cfg.n_traj), dtype=np.float32)
         speed = None  # with pace "seed": the speed of the plan the last seed frame was generated under
-        n_plan = len(norm.traj_mean)  # c^d's ground points (a phase model's phase follows them)
         phase = None
         if self.cfg.phase:
             phase = paced_phase(seed_x, self.layout, total)
@@ -267,8 +267,8 @@ class Generator:
             elif path is not None:
                 c_next = norm.norm_traj(path_controls(path, t + 1, root_xz, heading))
             elif speed is not None:  # the plan at the held speed (NaN: as predicted)
-                held = norm.norm_traj(at_speed(pred_traj[:, :n_plan] * norm.traj_std + norm.traj_mean, np.nan_to_num(speed)))
-                c_next = np.where(np.isnan(speed)[:, None], pred_traj[:, :n_plan], held)
+                held = norm.norm_traj(at_speed(norm.denorm_traj(pred_traj), np.nan_to_num(speed)))
+                c_next = np.where(np.isnan(speed)[:, None], pred_traj[:, :held.shape[1]], held)
             else:
                 c_next = pred_traj
             if t + 1 < s and seed_n is not None:  # the seed's own c^d where it has one (not NaN)
@@ -279,7 +279,7 @@ class Generator:
                     phase[:, t + 1] = on_circle(pred_traj[:, -2:])
                 c_next = np.concatenate([c_next[:, :self.cfg.n_traj - 2], phase[:, t + 1]], axis=1)
             if self.pace == "seed" and t + 2 == s:
-                speed = plan_speed(c_next[:, :n_plan] * norm.traj_std + norm.traj_mean)
+                speed = plan_speed(norm.denorm_traj(c_next))
             raw = self._step(x_t, np.ascontiguousarray(c_next), t)
             # a view of raw: the residual channels get g x_t added in place
             self.cfg.add_residual(raw[:, self.parts["mean"]], x_t)

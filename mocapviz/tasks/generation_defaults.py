@@ -10,6 +10,7 @@ GENERATION_MODEL = "ccnet_phase_lerp_scale"
 # plan fed back frame by frame, ccnet_phase_lerp's Bandai run test seed slowed to 0.27x the real
 # runs' ground speed over seconds 30-60; held, 0.84x (issue 9)
 PACE = "seed"
+PACES = ("seed", "network")  # what Generator(pace=...) and --pace accept
 
 # Sampling spread: chosen on the 9 validation seeds (pace "seed"), where the sampled waving shakes at
 # 1 and 0.7 (jitter 4.7x and 3.2x the real clips' with ccnet_phase_lerp, 4.9x and 3.5x with
