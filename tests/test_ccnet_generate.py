@@ -283,6 +283,31 @@ def test_blended_latent_feeds_the_decoder_a_continuous_z(ds, committed):
     assert bend[~at_knot].max() < 1e-5 and bend[at_knot].min() > 1e-3
 
 
+def test_blended_learned_prior_mean_output_equals_full_recompute(ds, committed):
+    """latent_lerp with a learned prior: the generator draws each knot from the prior given the
+    past at the frame it draws it, which the full forward pass's mean output reads too
+    (models.ccnet.knot_prior_frames), so the incremental mean output is the full recompute's."""
+    model, norm, _ = committed
+    latent = CCNet(replace(model.cfg, latent=4, latent_hold=5, latent_lerp=True, learned_prior=True)).eval()
+    latent.load_state_dict(model.state_dict(), strict=False)
+    with torch.no_grad():
+        latent.z_in.weight.normal_(0, 1.0)
+    _, x, traj, skel, ti = seed_inputs(ds, "HDM_bd_jogLeftCircle4StepsRstart_001_120")
+    types = one_hot([ti], model.cfg.n_types)
+    g = Generator(latent, norm)
+    g.keep_outputs = True
+    gen = g.run(x, skel, types, 60, seed_traj=traj)
+    inc, pred = step_outputs(g.raw_outputs, latent.cfg)
+    full = full_recompute_outputs(latent, norm, gen, skel, types, controls_used(gen, traj, pred, norm, latent.cfg))
+    assert np.abs(inc - full).max() < 1e-5
+    # the prior's mean is not 0 (else this would not test where the knots' priors read)
+    with torch.no_grad():
+        zero = latent(torch.from_numpy(gen.x_norm[:, :-1]), torch.from_numpy(norm.norm_skel(skel)),
+                      torch.from_numpy(controls_used(gen, traj, pred, norm, latent.cfg)), torch.from_numpy(types),
+                      z=torch.zeros(1, gen.x_norm.shape[1] - 1, 4))["mean"].numpy()
+    assert np.abs(inc[..., :latent.cfg.n_continuous] - zero).max() > 1e-2
+
+
 def test_ar_prior_draws_continue_the_last_z(committed):
     """With CCNetConfig.latent_ar rho the generator's z is the prior's AR(1) process: unit
     variance, lag-one correlation rho; a temperature scales the innovations; the mean output's z

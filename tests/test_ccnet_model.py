@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from mocapviz.features.ccnet import Normaliser
-from mocapviz.models.ccnet import CCNet
+from mocapviz.models.ccnet import CCNet, latent_weights
 from mocapviz.models.ccnet_config import CCNetConfig, receptive_field
 from mocapviz.models.steppers import CCNetStepper
 from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint
@@ -481,7 +481,6 @@ def test_held_latent_is_one_z_per_block_with_one_kl_per_block():
 
 
 def test_latent_weights_hand_computed():
-    from mocapviz.models.ccnet import latent_weights
     held = [[1, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0], [0, 0, 1]]
     np.testing.assert_array_equal(latent_weights(5, 2), held)
     blended = [[1, 0, 0], [.5, .5, 0], [0, 1, 0], [0, .5, .5], [0, 0, 1]]
@@ -501,8 +500,26 @@ def test_blended_latent_pools_the_posterior_with_the_hat_weights():
     blend = torch.stack([zk[:, t // 4] * (1 - (t % 4) / 4) + zk[:, t // 4 + 1] * ((t % 4) / 4) for t in range(10)], 1)
     with torch.no_grad():
         torch.testing.assert_close(ev["mean"], m(x, skel, traj, types, z=blend)["mean"])
-    with pytest.raises(ValueError, match="latent_lerp"):
-        latent_net(latent_lerp=True, learned_prior=True)
+
+
+def test_knot_priors_read_the_past_where_generation_draws_the_knot():
+    """A learned prior reads knot j's past at its block's first frame (held), or k frames before
+    the knot when blended (z starts moving towards it then; knots 0 and 1 both at frame 0); the
+    mean output (no z given) decodes the blend of the knots' prior means."""
+    from mocapviz.models.ccnet import knot_prior_frames
+    np.testing.assert_array_equal(knot_prior_frames(10, 4), [0, 4, 8])
+    np.testing.assert_array_equal(knot_prior_frames(10, 4, lerp=True), [0, 0, 4, 8])
+    np.testing.assert_array_equal(knot_prior_frames(5, 1, lerp=True), [0, 0, 1, 2, 3])  # drawn a frame ahead
+    cfg, m = latent_net(latent_hold=4, latent_lerp=True, learned_prior=True)
+    x, skel, traj, types = inputs(cfg, t=10)
+    with torch.no_grad():
+        skip = m.trunk(x, skel, traj, types)
+        ev = m(x, skel, traj, types, target_x=torch.randn_like(x))
+        prior = m.prior_of(skip[:, [0, 0, 4, 8]])
+        torch.testing.assert_close(ev["prior_mean"], prior[0])
+        torch.testing.assert_close(ev["prior_logvar"], prior[1])
+        blend = torch.einsum("tj,bjl->btl", torch.from_numpy(latent_weights(10, 4, lerp=True)), prior[0])
+        torch.testing.assert_close(m(x, skel, traj, types)["mean"], m(x, skel, traj, types, z=blend)["mean"])
 
 
 def test_ar_prior_ties_each_z_to_the_one_before():

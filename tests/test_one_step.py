@@ -52,6 +52,42 @@ def test_a_network_that_copies_its_input_scores_copy_last(ds):
     assert table.loc["rot", "extrapolate"] < table.loc["rot", "copy_last"] < 0.1
 
 
+def test_root_bias_of_a_network_that_copies_its_input_by_hand(ds):
+    """Copying frame t as frame t+1 errs by x_t - x_{t+1}: over a clip's frames that sums to
+    x_first - x_last, so a type's mean error is the sum of those over its clips' frame pairs."""
+    from mocapviz.tasks.one_step import ROOT_COLUMNS, root_bias_table
+    norm = ds.normaliser
+    rows = np.flatnonzero((ds.clips.split == "test").values)[:4]
+    table = root_bias_table(CopyLast(len(norm.x_mean), len(ds.motion_types)), norm, ds, rows)
+    assert list(table.columns) == [*ROOT_COLUMNS, "real_speed"]
+    root = ds.layout.x_blocks["root"]
+    for t, group in ds.clips.iloc[rows].groupby("type"):
+        clips = [ds.clip_arrays(ds.clip_row(c))["x"][:, root] for c in group["clip"]]
+        by_hand = sum(x[0] - x[-1] for x in clips) / sum(len(x) - 1 for x in clips)
+        np.testing.assert_allclose(table.loc[t, list(ROOT_COLUMNS)], by_hand, atol=1e-5)
+        speed = np.concatenate([np.abs(x[1:, 1]) for x in clips]).mean()
+        assert table.loc[t, "real_speed"] == pytest.approx(speed)
+
+
+@pytest.mark.parametrize("name, pushes", [
+    ("ccnet_phase", False),              # a z per frame: its prior's mean is where the clips' posteriors are
+    ("ccnet_phase_lerp_scale", True),    # knots of z 10 frames apart, N(0, I) prior: z = 0 decodes a pace
+])
+def test_root_bias_sees_a_standing_type_pushed_forward(ds, name, pushes):
+    """Teacher-forced on training clips of the standing types, the mean root's forward error is
+    what a generated waving walks off at (issue 9: ccnet_phase_lerp_scale 0.26 m/s)."""
+    from data_prep import zoo
+    from mocapviz.tasks.one_step import root_bias_table
+    model, norm, _ = zoo.load(name, retrain_if_missing=False)
+    standing = ds.clips.type.isin(["wave", "raise_hand"]) & (ds.clips.split == "train")
+    table = root_bias_table(model, norm, ds, np.flatnonzero(standing.values))
+    assert (table["real_speed"] < 0.05).all()   # the real clips stand
+    if pushes:
+        assert (table["forward"] > 0.15).all(), table
+    else:
+        assert (table["forward"].abs() < 0.05).all(), table
+
+
 def test_linear_code_residual_by_hand():
     from mocapviz.tasks.one_step import linear_code_residual
     rng = np.random.default_rng(0)

@@ -88,6 +88,15 @@ def latent_weights(n_frames: int, k: int, lerp: bool = False) -> np.ndarray:
     return np.clip(1.0 - np.abs(t[:, None] - knots[None]) / k, 0.0, None).astype(np.float32)
 
 
+def knot_prior_frames(n_frames: int, k: int, lerp: bool = False) -> np.ndarray:
+    """(J,) the frame whose past gives each knot of :func:`latent_weights` its prior (a learned
+    prior, CCNetConfig.learned_prior): the frame at which generation draws it. Held: its block's
+    first frame. Blended: a knot is drawn when z starts moving towards it, k frames early, so
+    knot j's prior reads frame (j - 1) k, and knots 0 and 1 both read frame 0."""
+    j = np.arange(latent_weights(n_frames, k, lerp).shape[1])
+    return np.maximum(j - 1, 0) * k if lerp else j * k
+
+
 def ar_prior(z_prev, rho: float) -> tuple:
     """The AR(1) prior of CCNetConfig.latent_ar: mean and log-variance of z_t given the previous
     z (torch or numpy array), N(rho z_prev, 1 - rho^2), which keeps every z N(0, 1) on its own (a
@@ -171,11 +180,14 @@ class CCNet(nn.Module):
                 z_mean, z_logvar = (torch.einsum("tj,btl->bjl", pool, v) for v in self.posterior_of(skip, x, target_x))
                 z_knots = z_mean + torch.exp(0.5 * z_logvar) * torch.randn_like(z_mean) if self.training else z_mean
                 z = torch.einsum("tj,bjl->btl", w, z_knots)
-                at = torch.argmax(w, 0)  # (J,) each knot's frame: its block's first, or the last for a knot past it
+                at = torch.from_numpy(knot_prior_frames(n, k, self.cfg.latent_lerp))
                 prior_mean, prior_logvar = self.prior_of(skip[:, at], z_knots)
                 extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
-            elif z is None:
-                z = self.prior_of(skip)[0]
+            elif z is None:  # the prior's mean per knot, as the generator's mean output
+                k, n = self.cfg.latent_hold, skip.shape[1]
+                w = torch.from_numpy(latent_weights(n, k, self.cfg.latent_lerp)).to(skip)
+                at = torch.from_numpy(knot_prior_frames(n, k, self.cfg.latent_lerp))
+                z = torch.einsum("tj,bjl->btl", w, self.prior_of(skip[:, at])[0])
         out = self.split_output(self.head(skip, z, traj, skel))
         if self.cfg.residual_slices:
             out["mean"] = self.cfg.add_residual(out["mean"].clone(), x)

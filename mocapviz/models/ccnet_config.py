@@ -53,7 +53,9 @@ class CCNetConfig:
     # learned_prior: z's prior is N(mu(past), sigma(past)^2) from the skip sum (a conditional
     # prior, as in VRNN-style sequence VAEs) instead of N(0, I); the mean output then uses the
     # prior's mean, the likeliest z for this past, not 0. It did not help either: config
-    # wide_latent froze on 6 of 10 test seeds, both walks among them (issue 9).
+    # wide_latent froze on 6 of 10 test seeds, both walks among them (issue 9). With knots of z
+    # (latent_hold), each knot's prior reads the past at the frame generation draws it
+    # (models.ccnet.knot_prior_frames).
     learned_prior: bool = False
     # latent_hold: one z per this many consecutive frames, in training (the posterior's mean and
     # log-variance averaged over the block, one KL per block) and in generation (a draw every
@@ -136,8 +138,6 @@ class CCNetConfig:
             raise ValueError(f"latent_hold must be >= 1, got {self.latent_hold}")
         if not 0.0 <= self.latent_ar < 1.0:
             raise ValueError(f"latent_ar must lie in [0, 1), got {self.latent_ar}")
-        if self.latent_lerp and self.learned_prior:
-            raise ValueError("latent_lerp draws the next knot ahead, which a learned prior (given the past) cannot")
         if self.latent_ar and self.learned_prior:
             raise ValueError("latent_ar and learned_prior are two different priors: choose one")
         if any(not 0 <= a < b <= self.n_continuous for a, b in self.residual_ranges):

@@ -68,6 +68,32 @@ def one_step_table(model, norm, ds, rows) -> pd.DataFrame:
     return pd.DataFrame({c: {k: float(np.median(np.concatenate(v[c]))) for k, v in acc.items()} for c in COLUMNS})
 
 
+ROOT_COLUMNS = ("sideways", "forward", "yaw_rate", "height")  # the root block of x, raw units
+
+
+def root_bias_table(model, norm, ds, rows) -> pd.DataFrame:
+    """The teacher-forced one-step root's mean error (predicted - true, raw units: m/s, m/s,
+    rad/s, m) per motion type of the clips ``rows``, over all their frames, beside the real
+    clips' mean |forward speed| (``real_speed``).
+
+    Why: a bias here is a steady push that generation integrates. A latent model whose mean
+    output decodes z = 0 where its clips' posteriors sit elsewhere predicted the standing types
+    (waving, gestures) 0.25-0.30 m/s forward from their own true past, and generated wavings
+    walked off at that speed whatever plan c^d they were given (issue 9)."""
+    root = ds.layout.x_blocks["root"]
+    err, speed = {}, {}
+    for r in rows:
+        clip = ds.clip_arrays(int(r))
+        mean, _ = one_step_prediction(model, norm, clip)
+        pred = mean[:, root] * norm.x_std[root] + norm.x_mean[root]
+        t = ds.clips.type.iloc[int(r)]
+        err.setdefault(t, []).append(pred - clip["x"][1:, root])
+        speed.setdefault(t, []).append(np.abs(clip["x"][1:, root.start + 1]))
+    table = pd.DataFrame({t: np.concatenate(e).mean(0) for t, e in err.items()}, index=list(ROOT_COLUMNS)).T
+    table["real_speed"] = pd.Series({t: float(np.concatenate(v).mean()) for t, v in speed.items()})
+    return table.rename_axis("type")
+
+
 def linear_code_residual(x_norm: np.ndarray, widths) -> dict[int, float]:
     """RMS (per channel, normalised units) of what a best linear code of ``k`` numbers cannot
     carry of frames ``x_norm`` (N, D), for each ``k`` in ``widths``: the PCA residual. A network

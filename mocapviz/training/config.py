@@ -170,6 +170,13 @@ TRAIN_CONFIGS = {
     "phase_lerp_scale": replace(PHASE_LERP, body_scale=(0.9, 1.25)),
     # Run S2: with the height anchor too; the Bandai run seeds jog in place.
     "phase_lerp_scale_anchor": replace(PHASE_LERP, body_scale=(0.9, 1.25), height_anchor=True),
+    # "phase_lerp_scale" with z's prior learned from the past (learned_prior), not N(0, I). Why: a
+    # knot of z spans 10 frames, so the decoder reads the root's pace from z, and z = 0 (N(0, I)'s
+    # mean, the mean output) decodes an average pace: teacher-forced on the training clips of the
+    # standing types, ccnet_phase_lerp_scale's mean forward root speed is 0.25-0.30 m/s too fast
+    # (wave, raise_hand, gesture), so its waving walks off; per-frame z (ccnet_phase): 0.00.
+    "phase_lerp_scale_prior": replace(PHASE_LERP, body_scale=(0.9, 1.25), learned_prior=True),
+    "phase_lerp_prior": replace(PHASE_LERP, learned_prior=True),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }
