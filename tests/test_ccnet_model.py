@@ -2,6 +2,7 @@
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -404,12 +405,13 @@ def latent_net(**kw):
     return cfg, m
 
 
-@pytest.mark.parametrize("traj_without_z, z_scale", [(False, 1.0), (True, 1.0), (True, 0.0)])
+@pytest.mark.parametrize("without_z, z_scale", [((), 1.0), (("traj",), 1.0), (("traj",), 0.0),
+                                                (("traj", "root"), 1.0), (("root",), 1.0)])
 @pytest.mark.parametrize("backend", ["torch", "numpy"])
-def test_latent_incremental_equals_full_recompute(backend, traj_without_z, z_scale):
+def test_latent_incremental_equals_full_recompute(backend, without_z, z_scale):
     """With a latent, the stepper given the same z per frame equals the full forward (also when
-    the predicted c^d does not see z, where the steppers skip the second decode for z = 0)."""
-    cfg, m = latent_net(traj_without_z=traj_without_z)
+    the predicted c^d or the root does not see z, where the steppers skip the second decode for z = 0)."""
+    cfg, m = latent_net(traj_without_z="traj" in without_z, root_without_z="root" in without_z)
     x, skel, traj, types = inputs(cfg, b=2, t=50)
     z = z_scale * torch.randn(2, 50, cfg.latent, generator=torch.Generator().manual_seed(3))
     with torch.no_grad():
@@ -429,6 +431,25 @@ def test_traj_without_z_plans_from_the_past_alone():
     torch.testing.assert_close(a["traj_mean"], b["traj_mean"])
     torch.testing.assert_close(a["traj_sigma"], b["traj_sigma"])
     assert not torch.allclose(a["mean"], b["mean"], atol=1e-3)
+
+
+def test_root_without_z_decodes_the_root_from_the_past_alone():
+    """root_without_z: the root block's mean and sigma (the last 4 continuous channels) are the
+    same whatever z; the rest of the frame's mean is not; the predicted c^d still sees z."""
+    cfg, m = latent_net(root_without_z=True)
+    np.testing.assert_array_equal(cfg.without_z_columns, [*range(cfg.n_continuous - 4, cfg.n_continuous),
+                                                          *range(2 * cfg.n_continuous - 4, 2 * cfg.n_continuous)])
+    both = replace(cfg, traj_without_z=True).without_z_columns
+    assert list(both[8:]) == list(range(cfg.output_slices["traj_mean"].start, cfg.n_out))
+    x, skel, traj, types = inputs(cfg, t=20)
+    z = torch.randn(2, 20, cfg.latent)
+    with torch.no_grad():
+        a, b = m(x, skel, traj, types, z=z), m(x, skel, traj, types, z=-z)
+    root = slice(cfg.n_continuous - 4, cfg.n_continuous)
+    torch.testing.assert_close(a["mean"][..., root], b["mean"][..., root])
+    torch.testing.assert_close(a["sigma"][..., root], b["sigma"][..., root])
+    assert not torch.allclose(a["mean"][..., :root.start], b["mean"][..., :root.start], atol=1e-3)
+    assert not torch.allclose(a["traj_mean"], b["traj_mean"], atol=1e-3)
 
 
 def test_latent_posterior_sample_in_training_mean_in_eval():

@@ -142,6 +142,7 @@ class CCNet(nn.Module):
                            latent=train_cfg.latent, learned_prior=train_cfg.learned_prior, latent_hold=train_cfg.latent_hold,
                            latent_ar=train_cfg.latent_ar,
                            latent_lerp=train_cfg.latent_lerp, traj_without_z=train_cfg.traj_without_z,
+                           root_without_z=train_cfg.root_without_z,
                            phase_harmonics=train_cfg.phase_harmonics,
                            residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
                                                  for b in train_cfg.residual_blocks))
@@ -210,15 +211,16 @@ class CCNet(nn.Module):
              skel: torch.Tensor | None = None) -> torch.Tensor:
         """The decoder: raw output (..., n_out) from the skip sum (and z, with a latent; and the
         phase in the control c^d ``traj``, with ``phase_harmonics``; and c^s ``skel``, with
-        ``height_anchor``). With ``cfg.traj_without_z`` the predicted c^d (the output's last
-        columns) is decoded from the skip sum alone."""
+        ``height_anchor``). The columns ``cfg.without_z_columns`` (the predicted c^d with
+        ``traj_without_z``, the root with ``root_without_z``) are decoded from the skip sum alone."""
         if not self.cfg.latent:
             out = self._decode(skip, traj)
         else:
             out = self._decode(skip + self.z_in(z), traj)
-            if self.cfg.traj_without_z:
-                at = self.cfg.output_slices["traj_mean"].start
-                out = torch.cat([out[..., :at], self._decode(skip, traj, slice(at, None))], -1)
+            cols = self.cfg.without_z_columns
+            if len(cols):
+                idx = torch.from_numpy(cols).to(out.device)
+                out = out.index_copy(-1, idx, self._decode(skip, traj, idx))
         if self.cfg.height_anchor:  # the mean root height: the body's standing one + the decoder's
             h, o = self.cfg.height_channel, self.cfg.height_offset(skel)[..., None]
             if out.dim() > skel.dim():  # one c^s per sequence: (B, 1, 1)

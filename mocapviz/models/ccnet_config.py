@@ -5,6 +5,10 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 
+import numpy as np
+
+ROOT_CHANNELS = 4   # the root block (vx, vz, heading rate, height) ends x's continuous part (features.ccnet)
+
 
 @dataclass(frozen=True)
 class CCNetConfig:
@@ -81,6 +85,13 @@ class CCNetConfig:
     # output's z = 0 planned an average pace: fed back as c^d, the run slowed to 0.95 m/s against
     # its 3.6 (2.58 with the clip's own c^d).
     traj_without_z: bool = False
+    # root_without_z: the root's mean and s (the root block: planar velocity, heading rate,
+    # height) are decoded from the skip sum without z too, so the root comes from the past alone.
+    # Why: with knots of z 10 frames apart and an N(0, I) prior, z carried the root's pace and the
+    # mean output's z = 0 decoded an average one: teacher-forced on the training clips of the
+    # standing types, ccnet_phase_lerp_scale's mean root went 0.25-0.30 m/s forward
+    # (one_step.root_bias_table), and its generated wavings walked off at that speed.
+    root_without_z: bool = False
     # latent_ar rho: z's prior is a stationary AR(1) process, z_1 ~ N(0, I) and
     # z_t ~ N(rho z_{t-1}, (1 - rho^2) I) (one step per knot), in training (the KL of each z
     # against the prior given the sampled z before it) and in generation (each draw continues the
@@ -190,6 +201,20 @@ class CCNetConfig:
             out[name] = slice(at, at + size)
             at += size
         return out
+
+    @property
+    def without_z_columns(self) -> np.ndarray:
+        """Columns of the raw output decoded from the skip sum without z (``traj_without_z``:
+        the predicted c^d's mean and s; ``root_without_z``: the root block's mean and s, the
+        last ROOT_CHANNELS of x's continuous part), ascending."""
+        out = self.output_slices
+        cols = []
+        if self.root_without_z:
+            for part in ("mean", "s"):
+                cols += range(out[part].stop - ROOT_CHANNELS, out[part].stop)
+        if self.traj_without_z:
+            cols += range(out["traj_mean"].start, self.n_out)
+        return np.asarray(cols, dtype=np.int64)
 
     @property
     def n_out(self) -> int:

@@ -63,6 +63,7 @@ class CCNetStepper:
         """Copies the weights of ``model`` (retake a stepper after changing the model)."""
         self.cfg = cfg = model.cfg
         self.batch = batch
+        self._without_z = torch.from_numpy(cfg.without_z_columns)
         c = cfg.channels
         with torch.no_grad():
             gate_scale = torch.cat([torch.ones(c), torch.full((c,), 0.5)]).to(dtype)
@@ -135,9 +136,9 @@ class CCNetStepper:
         if z is not None and self.w.z_w is not None:
             skip = torch.addmm(skip, z.to(self.dtype), self.w.z_w)
         out = self._decode(skip, traj, slice(None))
-        if z is not None and self.cfg.traj_without_z and bool(z.any()):  # c^d from the skip sum alone (CCNet.head; z = 0 adds nothing)
-            at = self.cfg.output_slices["traj_mean"].start
-            out[:, at:] = self._decode(plain, traj, slice(at, None))
+        cols = self._without_z
+        if z is not None and len(cols) and bool(z.any()):  # these from the skip sum alone (CCNet.head; z = 0 adds nothing)
+            out[:, cols] = self._decode(plain, traj, cols)
         return out
 
     def _decode(self, skip, traj, columns: slice) -> torch.Tensor:
@@ -179,6 +180,7 @@ class NumpyStepper:
         w = ref.w
         f = lambda t: t.detach().numpy().astype(np.float32).copy()  # noqa: E731
         self.cfg, self.batch = ref.cfg, batch
+        self._without_z = ref.cfg.without_z_columns
         self.enc_w, self.enc_b = f(w.enc_w), f(w.enc_b)
         self.ctrl_static_w, self.ctrl_traj_w, self.ctrl_b = f(w.ctrl_static_w), f(w.ctrl_traj_w), f(w.ctrl_b)
         self.past_w = np.stack([f(x) for x in w.past_w])
@@ -214,15 +216,15 @@ class NumpyStepper:
 
     def head(self, skip: np.ndarray, z: np.ndarray | None = None, traj: np.ndarray | None = None) -> np.ndarray:
         """``CCNet.head`` on numpy arrays (``skip`` is overwritten)."""
-        # c^d from the skip sum alone (CCNet.head); z = 0 (the mean output) adds nothing to the skip
-        # sum, so then the full decode's c^d columns are that already
-        plain = skip.copy() if z is not None and self.cfg.traj_without_z and np.any(z) else None
+        # some columns from the skip sum alone (CCNet.head); z = 0 (the mean output) adds nothing to
+        # the skip sum, so then the full decode's columns are that already
+        cols = self._without_z
+        plain = skip.copy() if z is not None and len(cols) and np.any(z) else None
         if z is not None and self.z_w is not None:
             skip += np.asarray(z, np.float32) @ self.z_w
         out = self._decode(skip, traj, slice(None))
         if plain is not None:
-            at = self.cfg.output_slices["traj_mean"].start
-            out[:, at:] = self._decode(plain, traj, slice(at, None))
+            out[:, cols] = self._decode(plain, traj, cols)
         return out
 
     def _decode(self, skip: np.ndarray, traj, columns: slice) -> np.ndarray:

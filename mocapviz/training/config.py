@@ -41,6 +41,7 @@ class TrainConfig:
     latent_hold: int = 1            # one z per this many frames (CCNetConfig.latent_hold)
     latent_lerp: bool = False       # ... blended between knots, not held (CCNetConfig.latent_lerp)
     traj_without_z: bool = False    # the predicted c^d does not see z (CCNetConfig.traj_without_z)
+    root_without_z: bool = False    # nor does the root (CCNetConfig.root_without_z)
     latent_ar: float = 0.0          # z's prior an AR(1) process with this lag-one correlation (CCNetConfig.latent_ar)
     skel_per_body: bool = False     # c^s normalised over distinct training bodies, not frames (Normaliser.per_body)
     height_anchor: bool = False     # root height relative to the body's standing root height (CCNetConfig.height_anchor)
@@ -177,6 +178,9 @@ TRAIN_CONFIGS = {
     # (wave, raise_hand, gesture), so its waving walks off; per-frame z (ccnet_phase): 0.00.
     "phase_lerp_scale_prior": replace(PHASE_LERP, body_scale=(0.9, 1.25), learned_prior=True),
     "phase_lerp_prior": replace(PHASE_LERP, learned_prior=True),
+    # ... or with the N(0, I) prior and the root decoded without z (root_without_z): the root
+    # from the past alone, the pose still from z.
+    "phase_lerp_scale_root": replace(PHASE_LERP, body_scale=(0.9, 1.25), root_without_z=True),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
 }
