@@ -65,7 +65,7 @@ from mocapviz.tasks.generation_quality import (
     real_reference,
     within_issue_bar,
 )
-from mocapviz.tasks.one_step import linear_code_residual, one_step_table
+from mocapviz.tasks.one_step import linear_code_residual, one_step_table, root_bias_table
 from mocapviz.training.config import TRAIN_CONFIGS
 from mocapviz.training.trainer import evaluate
 from mocapviz.training.windows import WindowData
@@ -525,16 +525,22 @@ for kind, clip in shown.items():
     display(Image(filename=str(path)))
 
 # %% [markdown]
-# ## 5f · The `generate` command's model: every body at many sizes, at the seed's pace
+# ## 5f · The `generate` command's model: every body at many sizes, the root from the past, at the seed's pace
 #
-# Two things the seeds above show went wrong, and what `mocapviz generate` does about them:
+# Three things the seeds above show went wrong, and what `mocapviz generate` does about them:
 #
 # * **The body.** 90 % of the training frames are Bandai's one body, and `ccnet_phase_lerp`
 #   learnt its root height, not the body's: the held-out HDM05 subject sinks and bends its knees.
-#   The command's model, `ccnet_phase_lerp_scale` (config `phase_lerp_scale`), trained on every
+#   `ccnet_phase_lerp_scale` (config `phase_lerp_scale`) trained on every
 #   window's body and motion scaled by a random factor in 0.9-1.25 (`TrainConfig.body_scale`,
 #   `WindowData.scaled`: exact, the same rotations on longer bones), so it sees root height,
 #   pace and $\mathbf c^s$ change together.
+# * **The root.** A knot of $z$ spans 10 frames, so the decoder read the root's pace from $z$, and
+#   the mean output's $z = 0$ decoded an average pace: the waving walked off. The command's model,
+#   `ccnet_phase_lerp_scale_root` (config `phase_lerp_scale_root`), decodes the root without $z$
+#   (`CCNetConfig.root_without_z`); the table below the next cell prints the teacher-forced root
+#   error of both on the training clips of the standing types
+#   (`mocapviz.tasks.one_step.root_bias_table`).
 # * **The pace.** Free-running, the network's own plan $\hat{\mathbf c}^d$ is fed back to it, and
 #   where it plans a little slower than it goes, it slows down: runs end up jogging in place.
 #   `pace="seed"` (`Generator`, `mocapviz.tasks.generate.at_speed`) scales each predicted plan to
@@ -551,6 +557,9 @@ runs = {(pace, mode): generation_quality(cmd_model, cmd_norm, ds, secs, sample=m
         for pace in ("network", "seed") for mode in ("mean", "sample")}
 runs["seed", "sample at temperature 1"] = generation_quality(cmd_model, cmd_norm, ds, secs, sample=True, banks=banks,
                                                              pace="seed")
+standing = np.flatnonzero((ds.clips.type.isin(["wave", "raise_hand", "gesture"]) & (ds.clips.split == "train")).values)
+print(pd.concat({name: root_bias_table(*zoo.load(name, retrain_if_missing=False)[:2], ds, standing)
+                 for name in ("ccnet_phase_lerp_scale", GENERATION_MODEL)}).round(3))
 for (pace, mode), q in runs.items():
     c = q["per_clip"]
     print(f"{GENERATION_MODEL}, pace {pace:7s}, {mode:26s}: {sum(map(within_issue_bar, c.values()))} of {len(c)} "

@@ -228,7 +228,7 @@ class CCNet(nn.Module):
             out = torch.cat([out[..., :h], out[..., h:h + 1] + o, out[..., h + 1:]], -1)
         return out
 
-    def _decode(self, skip, traj, columns: slice = slice(None)) -> torch.Tensor:
+    def _decode(self, skip, traj, columns: slice | torch.Tensor = slice(None)) -> torch.Tensor:
         """The decoder's ``columns`` of the raw output from a skip sum (before the ReLU)."""
         h = torch.relu(skip)
         out = F.linear(h, self.decoder.weight[columns, :, 0], self.decoder.bias[columns])

@@ -141,7 +141,7 @@ class CCNetStepper:
             out[:, cols] = self._decode(plain, traj, cols)
         return out
 
-    def _decode(self, skip, traj, columns: slice) -> torch.Tensor:
+    def _decode(self, skip, traj, columns: slice | torch.Tensor) -> torch.Tensor:
         h = skip.relu()
         out = torch.addmm(self._dec_b[..., columns], h, self.w.dec_w[:, columns])
         if self.w.phase_w is not None:
@@ -227,7 +227,7 @@ class NumpyStepper:
             out[:, cols] = self._decode(plain, traj, cols)
         return out
 
-    def _decode(self, skip: np.ndarray, traj, columns: slice) -> np.ndarray:
+    def _decode(self, skip: np.ndarray, traj, columns: slice | np.ndarray) -> np.ndarray:
         """The decoder's ``columns`` of the raw output (``skip`` is overwritten by its ReLU)."""
         np.maximum(skip, 0, out=skip)
         out = skip @ self.dec_w[:, columns]

@@ -2,9 +2,10 @@
 torch import: ``mocapviz generate --help`` shows them at once). A :class:`~mocapviz.tasks.generate.Generator`'s
 own defaults are the model's plain output: its own plan (pace "network") and temperature 1."""
 
-# trained on every body at many sizes, it keeps a body it has not seen at its own height, where
-# ccnet_phase_lerp sinks it (models/README.md, "Holding the pace", says what each costs)
-GENERATION_MODEL = "ccnet_phase_lerp_scale"
+# trained on every body at many sizes, with the root decoded from the past alone (root_without_z):
+# chosen over ccnet_phase_lerp_scale on the validation seeds, whose standing types it pushed
+# 0.25-0.30 m/s forward (models/README.md, "Why the waving walked off", says what each costs)
+GENERATION_MODEL = "ccnet_phase_lerp_scale_root"
 
 # "seed": without a path, hold the speed of the plan (c^d) at the seed's end. With the network's own
 # plan fed back frame by frame, ccnet_phase_lerp's Bandai run test seed slowed to 0.27x the real

@@ -178,8 +178,14 @@ TRAIN_CONFIGS = {
     # (wave, raise_hand, gesture), so its waving walks off; per-frame z (ccnet_phase): 0.00.
     "phase_lerp_scale_prior": replace(PHASE_LERP, body_scale=(0.9, 1.25), learned_prior=True),
     "phase_lerp_prior": replace(PHASE_LERP, learned_prior=True),
+    # Runs L1 (phase_lerp_scale_prior) and L2 (phase_lerp_prior): the standing types' root error
+    # falls to 0.00 m/s and the waving stands, but on the validation seeds the walk-back slows
+    # below the bar (activity 0.46-0.49x) and L1's sneak shakes (jitter 3.2-3.3x), L2's jog stalls
+    # (0.41x): 28 of 36 checks within the bar against the scaled model's 36 (models/README.md).
     # ... or with the N(0, I) prior and the root decoded without z (root_without_z): the root
-    # from the past alone, the pose still from z.
+    # from the past alone, the pose still from z. Run R1: the standing types' root error
+    # 0.001-0.006 m/s, 36 of 36 validation checks within the bar and moving like the real clips;
+    # committed as ccnet_phase_lerp_scale_root, the generate command's model. 40 min sharing the cores.
     "phase_lerp_scale_root": replace(PHASE_LERP, body_scale=(0.9, 1.25), root_without_z=True),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
