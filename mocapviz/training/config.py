@@ -167,7 +167,7 @@ TRAIN_CONFIGS = {
     # Run S1 (models/README.md, "Every body at many sizes"): the held-out tr jog passes both ways, but
     # its sneak turns into a jog and the Bandai walks run; validation NLL -83.2 against -92.2. Its
     # plan held at the seed's pace (Generator pace="seed"), walks walk and the sneak sneaks: committed
-    # as ccnet_phase_lerp_scale, the generate command's model. 31 min on one shared core.
+    # as ccnet_phase_lerp_scale, the generate command's model until ccnet_phase_lerp_scale_root. 31 min on one shared core.
     "phase_lerp_scale": replace(PHASE_LERP, body_scale=(0.9, 1.25)),
     # Run S2: with the height anchor too; the Bandai run seeds jog in place.
     "phase_lerp_scale_anchor": replace(PHASE_LERP, body_scale=(0.9, 1.25), height_anchor=True),
