@@ -171,23 +171,21 @@ class CCNet(nn.Module):
         else ``z`` (B, T, latent) is used, or the prior's mean."""
         skip = self.trunk(x, skel, traj, types)
         extra = {}
-        if self.cfg.latent:
+        if self.cfg.latent and (target_x is not None or z is None):
+            # one z per knot: per block of k frames, or blended between knots k frames apart
+            # (latent_weights); a knot's prior from the skip sum where generation draws it
+            # (knot_prior_frames)
+            k, n = self.cfg.latent_hold, skip.shape[1]
+            w = torch.from_numpy(latent_weights(n, k, self.cfg.latent_lerp)).to(skip)
+            at = torch.from_numpy(knot_prior_frames(n, k, self.cfg.latent_lerp))
             if target_x is not None:
-                # one z per knot: per block of k frames, or blended between knots k frames apart
-                # (latent_weights); a knot's prior from the skip sum at its first frame
-                k, n = self.cfg.latent_hold, skip.shape[1]
-                w = torch.from_numpy(latent_weights(n, k, self.cfg.latent_lerp)).to(skip)
                 pool = w / w.sum(0)
                 z_mean, z_logvar = (torch.einsum("tj,btl->bjl", pool, v) for v in self.posterior_of(skip, x, target_x))
                 z_knots = z_mean + torch.exp(0.5 * z_logvar) * torch.randn_like(z_mean) if self.training else z_mean
                 z = torch.einsum("tj,bjl->btl", w, z_knots)
-                at = torch.from_numpy(knot_prior_frames(n, k, self.cfg.latent_lerp))
                 prior_mean, prior_logvar = self.prior_of(skip[:, at], z_knots)
                 extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
-            elif z is None:  # the prior's mean per knot, as the generator's mean output
-                k, n = self.cfg.latent_hold, skip.shape[1]
-                w = torch.from_numpy(latent_weights(n, k, self.cfg.latent_lerp)).to(skip)
-                at = torch.from_numpy(knot_prior_frames(n, k, self.cfg.latent_lerp))
+            else:  # the prior's mean per knot, as the generator's mean output
                 z = torch.einsum("tj,bjl->btl", w, self.prior_of(skip[:, at])[0])
         out = self.split_output(self.head(skip, z, traj, skel))
         if self.cfg.residual_slices:

@@ -88,7 +88,7 @@ def root_bias_table(model, norm, ds, rows) -> pd.DataFrame:
         pred = mean[:, root] * norm.x_std[root] + norm.x_mean[root]
         t = ds.clips.type.iloc[int(r)]
         err.setdefault(t, []).append(pred - clip["x"][1:, root])
-        speed.setdefault(t, []).append(np.abs(clip["x"][1:, root.start + 1]))
+        speed.setdefault(t, []).append(np.abs(clip["x"][1:, root.start + ROOT_COLUMNS.index("forward")]))
     table = pd.DataFrame({t: np.concatenate(e).mean(0) for t, e in err.items()}, index=list(ROOT_COLUMNS)).T
     table["real_speed"] = pd.Series({t: float(np.concatenate(v).mean()) for t, v in speed.items()})
     return table.rename_axis("type")
