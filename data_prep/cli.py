@@ -66,6 +66,11 @@ def _train(args) -> int:
     return run(args)
 
 
+def _fit_type_prior(args) -> int:
+    from data_prep.type_prior import run
+    return run(args)
+
+
 def _apps_tables(args) -> int:
     from data_prep.apps_tables import run
     return run(args)
@@ -118,6 +123,12 @@ def parser() -> argparse.ArgumentParser:
     t = sub.add_parser("train", help="train a model on the CCNet dataset (see data_prep/train.py)")
     add_arguments(t)
     t.set_defaults(func=_train)
+
+    from data_prep.type_prior import add_arguments as add_prior_arguments
+    tp = sub.add_parser("fit-type-prior", help="fit a latent CCNet's prior of z given the motion type and write it "
+                        "beside the checkpoint (see data_prep/type_prior.py)")
+    add_prior_arguments(tp)
+    tp.set_defaults(func=_fit_type_prior)
 
     from data_prep.apps_tables import add_arguments as add_apps_arguments
     ap = sub.add_parser("apps-tables", help="CCNet Table 1 (denoising) and trajectory following against the "

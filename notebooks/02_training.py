@@ -546,9 +546,15 @@ for kind, clip in shown.items():
 #   `pace="seed"` (`Generator`, `mocapviz.tasks.generate.at_speed`) scales each predicted plan to
 #   the speed of the plan the seed's last frame had, as the paper's interactive control scales
 #   the plan to the user's speed (§4.4); the direction stays the network's.
+# * **The type.** The root fixed, the waving still stepped its feet in place: every other
+#   channel is decoded from $z$, and $z$ drawn around $0$ decodes an average of all types. The
+#   model's type prior (`mocapviz.models.type_prior`, fitted after training by `python -m data_prep
+#   fit-type-prior`) is each motion type's aggregate posterior over the training clips, one
+#   Gaussian per type; the mean output decodes the type's mean $z$, and samples draw around it.
 #
 # The same ten test seeds, mean output and sampled (the command's temperature, chosen on the
-# validation seeds, `mocapviz.tasks.generation_defaults`), with the network's own pace and held:
+# validation seeds, `mocapviz.tasks.generation_defaults`), with the network's own pace and held,
+# and sampled from N(0, I) instead of the type prior:
 
 # %%
 cmd_model, cmd_norm, _ = zoo.load(GENERATION_MODEL, retrain_if_missing=False)
@@ -557,6 +563,8 @@ runs = {(pace, mode): generation_quality(cmd_model, cmd_norm, ds, secs, sample=m
         for pace in ("network", "seed") for mode in ("mean", "sample")}
 runs["seed", "sample at temperature 1"] = generation_quality(cmd_model, cmd_norm, ds, secs, sample=True, banks=banks,
                                                              pace="seed")
+runs["seed", "sample from N(0, I)"] = generation_quality(cmd_model, cmd_norm, ds, secs, sample=True, banks=banks,
+                                                         pace="seed", temperature=SAMPLING_TEMPERATURE, type_prior=False)
 standing = np.flatnonzero((ds.clips.type.isin(["wave", "raise_hand", "gesture"]) & (ds.clips.split == "train")).values)
 print(pd.concat({name: root_bias_table(*zoo.load(name, retrain_if_missing=False)[:2], ds, standing)
                  for name in ("ccnet_phase_lerp_scale", GENERATION_MODEL)}).round(3))
@@ -568,6 +576,10 @@ for (pace, mode), q in runs.items():
 print(pd.concat({f"{pace}, {mode}": pd.DataFrame(q["per_clip"]).T[["activity_ratio", "jitter_ratio", "root_speed_ratio",
                                                                   "root_height_ratio"]]
                  for (pace, mode), q in runs.items() if mode == "mean"}, axis=1).round(2))
+print("the waving, sampled at the seed's pace, with the type prior and from N(0, I):")
+print(pd.concat({mode: pd.DataFrame(runs["seed", mode]["per_clip"]).T.query("type == 'wave'")[
+    ["activity_ratio", "jitter_ratio", "root_speed_ratio"]].astype(float).round(2)
+    for mode in ("sample", "sample from N(0, I)")}, axis=1))
 
 # %% [markdown]
 # Look: the held-out subject's jog and the Bandai run, mean output at the seed's pace, the last 2 s

@@ -445,8 +445,9 @@ def test_seed_pace_feeds_the_networks_plan_at_the_seeds_last_speed(ds):
 
 def test_seed_pace_keeps_a_run_running(ds):
     """A held-out Bandai run seed, 20 s with the generate command's model, mean output, last 5 s:
-    fed its own plan the network slows to about half the seed plan's ground speed (0.46x
-    measured); at the seed's pace it keeps running (0.84x measured)."""
+    with z = 0 (N(0, I)'s mean) and fed its own plan the network slows to about half the seed
+    plan's ground speed (0.46x measured); at the seed's pace it keeps running (0.84x measured).
+    With the run's mean z (its type prior) it keeps running either way (1.09x, 0.99x)."""
     model, norm, _ = zoo.load(GENERATION_MODEL, retrain_if_missing=False)
     d = ds.with_vocabulary(model.cfg.n_types)
     row, x, traj, skel, ti = seed_inputs(d, "dataset-2_run_masculine_047", 48)
@@ -454,10 +455,13 @@ def test_seed_pace_keeps_a_run_running(ds):
     target = plan_speed(traj[:, -1])[0]
     last5 = {}
     for pace in ("network", "seed"):
-        gen = Generator(model, norm, pace=pace).run(x, skel, one_hot([ti], model.cfg.n_types), 1200, seed_traj=traj)
-        root = gen.motion(0, d.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False).root_positions
-        last5[pace] = np.linalg.norm(np.diff(root[-300:, [0, 2]], axis=0), axis=1).sum() / 5.0 / target
-    assert last5["network"] < 0.6 and 0.75 < last5["seed"] < 1.25, last5
+        for type_prior in (False, True):
+            gen = Generator(model, norm, pace=pace, type_prior=type_prior).run(
+                x, skel, one_hot([ti], model.cfg.n_types), 1200, seed_traj=traj)
+            root = gen.motion(0, d.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False).root_positions
+            last5[pace, type_prior] = np.linalg.norm(np.diff(root[-300:, [0, 2]], axis=0), axis=1).sum() / 5.0 / target
+    assert last5["network", False] < 0.6 and 0.75 < last5["seed", False] < 1.25, last5
+    assert 0.75 < last5["network", True] < 1.25 and 0.75 < last5["seed", True] < 1.25, last5
 
 
 def test_seed_pace_ends_where_the_motion_type_changes(ds):

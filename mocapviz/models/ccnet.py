@@ -56,19 +56,25 @@ class SRB(nn.Module):
         return h + F.linear(g, self.res.weight[:, :, 0]), F.linear(g, self.skip.weight[:, :, 0], self.skip.bias)
 
 
-def phase_basis(h, phase, harmonics: int):
-    """(..., 2K (S + 1)): the decoder input h (..., S) with a 1 appended, times cos(k p) and
-    sin(k p) for k = 1..K, p the phase given as (sin p, cos p) (..., 2) on the unit circle.
-    Torch or numpy. The harmonics come from the angle-sum formulas, not from an arctan2 and K
-    cos/sin calls: this runs once per generated frame."""
-    lib = torch if torch.is_tensor(h) else np
+def phase_waves(phase, harmonics: int):
+    """(..., 2K): cos(k p) for k = 1..K, then sin(k p), of the phase p given as (sin p, cos p)
+    (..., 2) on the unit circle. Torch or numpy. The harmonics come from the angle-sum formulas,
+    not from an arctan2 and K cos/sin calls: this runs once per generated frame."""
+    lib = torch if torch.is_tensor(phase) else np
     s1, c1 = phase[..., :1], phase[..., 1:]
     cos_k, sin_k = [c1], [s1]
     for _ in range(1, harmonics):
         c, s = cos_k[-1], sin_k[-1]
         cos_k.append(c * c1 - s * s1)
         sin_k.append(s * c1 + c * s1)
-    waves = lib.concatenate(cos_k + sin_k, -1)                       # (..., 2K)
+    return lib.concatenate(cos_k + sin_k, -1)
+
+
+def phase_basis(h, phase, harmonics: int):
+    """(..., 2K (S + 1)): the decoder input h (..., S) with a 1 appended, times the
+    :func:`phase_waves` of the phase (..., 2). Torch or numpy."""
+    lib = torch if torch.is_tensor(h) else np
+    waves = phase_waves(phase, harmonics)                            # (..., 2K)
     hb = lib.concatenate([h, lib.ones_like(h[..., :1])], -1)         # (..., S + 1)
     return (waves[..., :, None] * hb[..., None, :]).reshape(*h.shape[:-1], -1)
 
@@ -131,6 +137,8 @@ class CCNet(nn.Module):
         if cfg.latent and cfg.learned_prior:
             self.prior = nn.Sequential(nn.Linear(cfg.skip_channels, cfg.posterior_hidden), nn.ELU(),
                                        nn.Linear(cfg.posterior_hidden, 2 * cfg.latent))
+        # p(z | motion type), fitted after training (mocapviz.models.type_prior); set by load_checkpoint
+        self.type_prior = None
 
     @classmethod
     def config_for(cls, train_cfg, layout) -> CCNetConfig:
@@ -186,7 +194,7 @@ class CCNet(nn.Module):
                 prior_mean, prior_logvar = self.prior_of(skip[:, at], z_knots)
                 extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
             else:  # the prior's mean per knot, as the generator's mean output
-                z = torch.einsum("tj,bjl->btl", w, self.prior_of(skip[:, at])[0])
+                z = torch.einsum("tj,bjl->btl", w, self.prior_mean(skip, types, at))
         out = self.split_output(self.head(skip, z, traj, skel))
         if self.cfg.residual_slices:
             out["mean"] = self.cfg.add_residual(out["mean"].clone(), x)
@@ -250,6 +258,16 @@ class CCNet(nn.Module):
         mean, logvar = ar_prior(z_past[:, :-1], self.cfg.latent_ar)
         first = zero[:, :1]  # a window's first z has no past: N(0, I)
         return torch.cat([first, mean], 1), torch.cat([first, zero[:, 1:] + logvar], 1)
+
+    def prior_mean(self, skip, types, at) -> torch.Tensor:
+        """(B, J, latent): the z the mean output decodes at knots whose prior reads the frames
+        ``at`` (J,): the mean of the type prior (``self.type_prior``) of each knot's type (one-hot
+        ``types``, (B, n_types) or (B, T, n_types)) when the model has one, else the prior's."""
+        if self.type_prior is None:
+            return self.prior_of(skip[:, at])[0]
+        types = self._ctrl(types)
+        index = types[:, at].argmax(-1) if types.shape[1] > 1 else types[:, [0] * len(at)].argmax(-1)
+        return torch.as_tensor(self.type_prior.mean).to(skip)[index]
 
     def _mean_logvar(self, p: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """A Gaussian's mean and log-variance from an MLP's (..., 2 latent) output; the

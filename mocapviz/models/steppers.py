@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
-from mocapviz.models.ccnet import phase_basis
+from mocapviz.models.ccnet import phase_basis, phase_waves
 
 if TYPE_CHECKING:
     from mocapviz.models.ccnet import CCNet
@@ -189,6 +189,12 @@ class NumpyStepper:
         self.skip_w, self.skip_b, self.dec_w, self.dec_b = f(w.skip_w), f(w.skip_b), f(w.dec_w), f(w.dec_b)
         self.z_w = None if w.z_w is None else f(w.z_w)
         self.phase_w = None if w.phase_w is None else f(w.phase_w)
+        # Why merged: as in trunk_step, a decode's cost is per numpy call, and the phase-functioned
+        # decoder's basis (phase_basis) took a dozen calls per decode
+        self._dec_all = self._merged_decoder(slice(None))
+        self._dec_without_z = self._merged_decoder(self._without_z)
+        self._hb = np.ones((batch, self.cfg.skip_channels + 1), np.float32)   # the decoder's input and a 1
+        self._plain_blend = np.ones((batch, 1, 1), np.float32)
         self._static = None
         self._enc_b, self._dec_b = self.enc_b, self.dec_b  # per character with a height anchor (set_static)
         self.reset()
@@ -202,6 +208,12 @@ class NumpyStepper:
         self._past_index = [np.array([(p - d) % r for d in dil]) for p in range(r)]
         self._blocks = np.arange(nb)
         self._g = np.zeros((self.batch, nb * c), dtype=np.float32)
+        # Why fixed buffers and views made once: a frame is ~140 calls on arrays of a few dozen
+        # numbers, where numpy's cost is per call and per new array, not per number
+        self._pre = np.zeros((nb, self.batch, 2 * c), dtype=np.float32)
+        self._tmp = np.zeros((self.batch, 2 * c), dtype=np.float32)
+        self._views = [[(p[i], p[i + 1] if i + 1 < nb else None) for i in range(nb)] for p in self.hist]
+        self._gates = [(z, z[:, :c], z[:, c:], self._g[:, i * c:(i + 1) * c]) for i, z in enumerate(self._pre)]
         self.t = 0
 
     def set_static(self, skel, types):
@@ -216,51 +228,67 @@ class NumpyStepper:
 
     def head(self, skip: np.ndarray, z: np.ndarray | None = None, traj: np.ndarray | None = None) -> np.ndarray:
         """``CCNet.head`` on numpy arrays (``skip`` is overwritten)."""
+        blend = self._blend(traj)
         # some columns from the skip sum alone (CCNet.head); z = 0 (the mean output) adds nothing to
         # the skip sum, so then the full decode's columns are that already
         cols = self._without_z
         plain = skip.copy() if z is not None and len(cols) and np.any(z) else None
         if z is not None and self.z_w is not None:
             skip += np.asarray(z, np.float32) @ self.z_w
-        out = self._decode(skip, traj, slice(None))
+        out = self._decode(skip, blend, self._dec_all, slice(None))
         if plain is not None:
-            out[:, cols] = self._decode(plain, traj, cols)
+            out[:, cols] = self._decode(plain, blend, self._dec_without_z, cols)
         return out
 
-    def _decode(self, skip: np.ndarray, traj, columns: slice | np.ndarray) -> np.ndarray:
-        """The decoder's ``columns`` of the raw output (``skip`` is overwritten by its ReLU)."""
-        np.maximum(skip, 0, out=skip)
-        out = skip @ self.dec_w[:, columns]
+    def _merged_decoder(self, columns) -> np.ndarray:
+        """(S + 1, J len(columns)): the decoder's weights (a zero row for the appended 1: the bias is
+        per character, set_static) beside the phase-functioned decoder's 2K weight sets, J = 2K + 1."""
+        s = self.cfg.skip_channels
+        plain = np.concatenate([self.dec_w, np.zeros((1, self.dec_w.shape[1]), np.float32)])[None]
+        sets = plain if self.phase_w is None else np.concatenate([plain, self.phase_w.reshape(-1, s + 1, plain.shape[-1])])
+        return np.ascontiguousarray(sets[:, :, columns].transpose(1, 0, 2).reshape(s + 1, -1))
+
+    def _blend(self, traj) -> np.ndarray:
+        """(B, 1, J): the weights of the decoder's J weight sets, 1 and the phase's waves (the phase
+        in the last two columns of the control ``traj``)."""
+        if self.phase_w is None:
+            return self._plain_blend
+        waves = phase_waves(np.asarray(traj, np.float32)[:, -2:], self.cfg.phase_harmonics)
+        return np.concatenate([self._plain_blend[:, 0], waves], 1)[:, None]
+
+    def _decode(self, skip: np.ndarray, blend: np.ndarray, weights: np.ndarray, columns) -> np.ndarray:
+        """The decoder's ``columns`` of the raw output: one matmul by the merged ``weights``
+        (:meth:`_merged_decoder`), then the sets blended (the phase-functioned decoder's sum)."""
+        hb = self._hb
+        np.maximum(skip, 0, out=hb[:, :-1])
+        y = hb @ weights
+        out = np.matmul(blend, y.reshape(len(y), blend.shape[-1], -1))[:, 0]
         out += self._dec_b[..., columns]
-        if self.phase_w is not None:
-            out += phase_basis(skip, np.asarray(traj, np.float32)[:, -2:], self.cfg.phase_harmonics) @ self.phase_w[:, columns]
         return out
 
     def trunk_step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:
         """Advance one frame; returns the skip sum (B, S) before the decoder's ReLU."""
-        c, nb, t = self.cfg.channels, len(self._blocks), self.t
-        h = x @ self.enc_w
-        h += self._enc_b
-        np.maximum(h, 0, out=h)
+        nb, t, r = len(self._blocks), self.t, self.hist.shape[0]
+        views = self._views[t % r]                 # block inputs of this frame are written here
+        # the past first: with d_i = R, block i's past input sits where this frame's is written
+        pre = np.matmul(self.hist[self._past_index[t % r], self._blocks], self.past_w, out=self._pre)  # (nb, B, 2C)
         cz = traj @ self.ctrl_traj_w
         cz += self._static
-        r = self.hist.shape[0]
-        past = self.hist[self._past_index[t % r], self._blocks]             # (nb, B, C), a copy
-        cur = self.hist[t % r]                     # block inputs of this frame are written here
-        pre = np.matmul(past, self.past_w)                                  # (nb, B, 2C)
-        pre += cz.reshape(self.batch, nb, 2 * c).transpose(1, 0, 2)
-        g_all = self._g
-        for i in range(nb):
-            z = h @ self.cur_w[i]
-            z += pre[i]
+        pre += cz.reshape(self.batch, nb, 2 * self.cfg.channels).transpose(1, 0, 2)
+        h0 = views[0][0]
+        np.matmul(x, self.enc_w, out=h0)
+        h0 += self._enc_b
+        np.maximum(h0, 0, out=h0)
+        tmp = self._tmp
+        for (h, h_next), (z, a, b, g), cur_w, res_w in zip(views, self._gates, self.cur_w, self.res_w):
+            z += np.matmul(h, cur_w, out=tmp)
             np.tanh(z, out=z)
-            a = z[:, :c]
-            g = g_all[:, i * c:(i + 1) * c]
-            np.multiply(a, z[:, c:], out=g)
+            np.multiply(a, b, out=g)               # 2 tanh(a) sigmoid(b) (CCNetStepper): the 1/2 is in res/skip
             g += a
-            cur[i] = h
-            h = h + g @ self.res_w[i]
+            if h_next is not None:                  # the last block's residual feeds nothing
+                np.matmul(g, res_w, out=h_next)
+                h_next += h
         self.t = t + 1
-        skip = g_all @ self.skip_w
+        skip = self._g @ self.skip_w
         skip += self.skip_b
         return skip

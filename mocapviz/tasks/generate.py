@@ -3,7 +3,7 @@
 Seed frames are fed through the network (teacher forcing), then each new frame is the mean of
 the predicted Gaussian (or a sample from it) with the predicted contact labels, fed back as the
 next input. A CCNet with a latent (``CCNetConfig.latent``) samples its z from the prior instead
-(per frame, or per knot every ``latent_hold`` frames, held or blended: ``latent_lerp``) and
+(its type prior given the motion type when it has one: :mod:`mocapviz.models.type_prior`; per frame, or per knot every ``latent_hold`` frames, held or blended: ``latent_lerp``) and
 writes the decoder's mean (the prior's mean z for the mean output). The trajectory
 control c^d comes from one of:
 
@@ -90,7 +90,7 @@ class Generator:
 
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
                  seed: int = 0, backend: str = "auto", temperature: float = 1.0, noise_correlation: float = 0.0,
-                 phase_source: str = "seed_pace", pace: str = "network"):
+                 phase_source: str = "seed_pace", pace: str = "network", type_prior: bool = True):
         if temperature < 0:
             raise ValueError(f"temperature must be >= 0, got {temperature}")
         if not 0.0 <= noise_correlation < 1.0:
@@ -134,6 +134,11 @@ class Generator:
         self.stepper = model.stepper(batch, self.backend)
         st, t = self.stepper, torch.from_numpy
         self.latent = self.cfg.latent  # a CCNet with a latent z (CCNetConfig.latent; baselines: 0)
+        # z from the model's prior given the motion type (mocapviz.models.type_prior), when it has one
+        # and ``type_prior``; else from its training prior. Why: N(0, I)'s mean z = 0 decodes an
+        # average of all types (issue 9: the waving stepped its feet in place)
+        self.type_prior = getattr(model, "type_prior", None) if type_prior and self.latent else None
+        self._type_index = None
         if self.backend == "numpy":
             self._plain_step = st.step
             if self.latent:
@@ -179,11 +184,16 @@ class Generator:
         return self._head(skip, z, c)
 
     def _latent(self, skip) -> np.ndarray:
-        """z of a latent model for the next knot, from its prior given the past (N(0, I) unless
-        learned, or AR(1) given the last knot: CCNetConfig.latent_ar): the prior's mean, or a draw
+        """z of a latent model for the next knot, from its type prior (``self.type_prior``) or else
+        its prior given the past (N(0, I) unless learned, or AR(1) given the last knot:
+        CCNetConfig.latent_ar): the prior's mean, or a draw
         from it with the spread scaled by ``temperature`` when sampling. The frame is then the decoder's mean: the variation comes from z, not
         from per-frame Gaussian noise on the frame."""
         rho = self.cfg.latent_ar
+        if self.type_prior is not None:
+            if not self.sample:
+                return self.type_prior.mean[self._type_index]
+            return self.type_prior.draw(self._type_index, self.temperature * self._draw((len(skip), self.latent)))
         if self.cfg.learned_prior:
             with torch.no_grad():
                 mean, logvar = (t.numpy() for t in self.model.prior_of(torch.as_tensor(skip)))
@@ -235,8 +245,12 @@ class Generator:
         self.raw_outputs = []
         self._noise = None
         self._z_past = []  # the last two knots of z, newest first (blended between; an AR prior's past)
-        set_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
+        stepper_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
             if self.backend == "torch" else self.stepper.set_static
+
+        def set_static(sk, ty):
+            stepper_static(sk, ty)
+            self._type_index = ty.argmax(1)  # the type prior's (one-hot types)
         set_static(skel_n, cur_type)
         xs = np.zeros((b, total, self.cfg.n_x), dtype=np.float32)
         xs[:, :s] = norm.norm_x(seed_x)
@@ -267,8 +281,9 @@ class Generator:
             elif path is not None:
                 c_next = norm.norm_traj(path_controls(path, t + 1, root_xz, heading))
             elif speed is not None:  # the plan at the held speed (NaN: as predicted)
-                held = norm.norm_traj(at_speed(norm.denorm_traj(pred_traj), np.nan_to_num(speed)))
-                c_next = np.where(np.isnan(speed)[:, None], pred_traj[:, :held.shape[1]], held)
+                free = np.isnan(speed)
+                held = norm.norm_traj(at_speed(norm.denorm_traj(pred_traj), np.where(free, 0.0, speed)))
+                c_next = np.where(free[:, None], pred_traj[:, :held.shape[1]], held) if free.any() else held
             else:
                 c_next = pred_traj
             if t + 1 < s and seed_n is not None:  # the seed's own c^d where it has one (not NaN)

@@ -4,7 +4,8 @@ Tensors: ``model.*`` (state dict), ``norm.*`` (normalisation statistics), option
 (optimizer state, for exact resume). Metadata (strings): ``model`` (the registered model name,
 :mod:`mocapviz.models.protocol`), ``model_config`` (JSON of the model's config), ``train_config``,
 ``dataset`` (JSON: hash, test subject, joint names, motion types, fps, training mean joint speed),
-``step``, ``format``. Files of format ``mocapviz.ccnet.v1`` (before the model registry) have no
+``step``, ``format``. A latent CCNet's type prior, fitted after training, lives beside the file
+(:func:`mocapviz.models.type_prior.sidecar_path`) and is attached on loading. Files of format ``mocapviz.ccnet.v1`` (before the model registry) have no
 ``model`` key and hold a CCNet. Writes are atomic.
 """
 
@@ -20,6 +21,7 @@ from safetensors.torch import save_file
 from mocapviz.atomic import atomic_path
 from mocapviz.features.ccnet import Normaliser
 from mocapviz.models.protocol import build_model
+from mocapviz.models.type_prior import TypePrior, sidecar_path
 
 FORMAT = "mocapviz.checkpoint.v2"
 LEGACY_FORMATS = {"mocapviz.ccnet.v1": "ccnet"}  # format -> the model every such file holds
@@ -101,6 +103,8 @@ def load_checkpoint(path, optimizer: torch.optim.Optimizer | None = None, model:
     if model is None:
         model = build_model(meta["model"], meta["model_config"])
     model.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("model.")})
+    if sidecar_path(path).is_file():  # fitted after training (mocapviz.models.type_prior)
+        model.type_prior = TypePrior.load(sidecar_path(path))
     norm = Normaliser.from_state_dict({k[5:]: v.numpy() for k, v in tensors.items() if k.startswith("norm.")})
     if optimizer is not None:
         if "optim_param_groups" not in meta:
