@@ -1,6 +1,6 @@
 """CCNet generation speed (incremental vs naive recompute) and pose-level quality, default model, this CPU.
 
-    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_phase_lerp_scale] [--frames 2000] [--repeats 3]
+    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_phase_lerp_scale] [--frames 2000] [--repeats 5]
         [--pace seed|network] [--temperature 0.5] [--noise-correlation 0]
 
 One character and 64 at once, frames per second of the autoregressive loop (network step plus
@@ -85,7 +85,8 @@ def time_naive(model, norm, ds, batch, frames, n_seed=30):
 def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--model", default=GENERATION_MODEL)
-    p.add_argument("--repeats", type=int, default=3, help="timings per path; the best counts (default: %(default)s)")
+    p.add_argument("--repeats", type=int, default=5,
+                   help="timings per path, the two paths interleaved; the best counts (default: %(default)s)")
     p.add_argument("--frames", type=int, default=2000)
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--freeze-seconds", type=float, default=60.0)
@@ -103,16 +104,20 @@ def main(argv=None) -> dict:
     # best of a.repeats timings for each path (as timeit): the least disturbed by other work on a
     # shared machine (one 2000-frame timing of the same code varied 3,900-5,500 frames/s here)
     # (timed at --pace: the generate command's default holds the plan's speed, a few numpy calls a frame)
-    fps1, out1, (x, traj, skel, types) = max((time_incremental(model, norm, ds, 1, a.frames, pace=a.pace)
-                                              for _ in range(a.repeats)),
-                                             key=lambda r: r[0])
+    # (the two paths' timings interleaved: this machine's speed drifts over tens of seconds, and
+    # timed one after the other the ratio read 14.4x and 22.5x in two runs of the same code)
+    incremental, naive = [], []
+    for _ in range(a.repeats):
+        incremental.append(time_incremental(model, norm, ds, 1, a.frames, pace=a.pace))
+        naive.append(time_naive(model, norm, ds, 1, max(100, a.frames // 10)))
+    fps1, out1, (x, traj, skel, types) = max(incremental, key=lambda r: r[0])
+    naive1 = max(naive)
     print(f"incremental, 1 character : {fps1:10.0f} frames/s")
     fps64_by = {b: time_incremental(model, norm, ds, 64, max(200, a.frames // 5), backend=b, pace=a.pace)[0]
                 for b in ("torch", "numpy")}
     for b, v in fps64_by.items():
         print(f"incremental, 64 characters ({b}): {v:10.0f} frames/s")
     fps64 = max(fps64_by.values())
-    naive1 = max(time_naive(model, norm, ds, 1, max(100, a.frames // 10)) for _ in range(a.repeats))
     print(f"naive recompute, 1        : {naive1:10.0f} frames/s")
     naive64 = time_naive(model, norm, ds, 64, 40)
     print(f"naive recompute, 64       : {naive64:10.0f} frames/s")

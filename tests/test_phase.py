@@ -10,7 +10,8 @@ import torch
 from ccnet_reference import controls_used, full_recompute_outputs, step_outputs
 from mocapviz.features.ccnet import FeatureLayout
 from mocapviz.features.motion_types import one_hot
-from mocapviz.features.phase import LEFT_FOOT, RIGHT_FOOT, clip_phases, local_phase, on_circle, phase_channels
+from mocapviz.features.phase import (LEFT_FOOT, RIGHT_FOOT, clip_phases, local_phase, on_circle, pace_hz, paced_phase,
+                                     phase_channels)
 from mocapviz.models.ccnet import CCNet
 from mocapviz.models.ccnet_config import make_config
 from mocapviz.tasks.denoising import teacher_forced
@@ -63,6 +64,25 @@ def test_a_still_pose_has_a_constant_phase_and_short_inputs_work():
     assert np.all(local_phase(x, LAYOUT) == 0)
     for n in (1, 2, 10):  # shorter than filtfilt's padding: no filter, no crash
         assert local_phase(striding(n, 1.0, True), LAYOUT).shape == (n,)
+
+
+def test_a_seed_without_a_cycle_turns_at_the_fallback_pace_and_a_striding_one_at_its_own():
+    """paced_phase: a still seed (no cycle: pace 0) and one at the band's floor turn on at their
+    ``fallback_hz``; a striding seed keeps its own pace whatever the fallback; no fallback (or 0)
+    keeps the seed's pace."""
+    seeds = np.stack([np.zeros((48, LAYOUT.n_x), np.float32), striding(48, 0.4, True), striding(48, 1.5, True)])
+    out = paced_phase(seeds, LAYOUT, 148, fallback_hz=np.array([1.2, 1.0, 0.5]))
+    hz = [pace_hz_of(out[b, 48:]) for b in range(3)]
+    np.testing.assert_allclose(hz, [1.2, 1.0, 1.5], atol=1e-3)
+    np.testing.assert_array_equal(paced_phase(seeds, LAYOUT, 148, fallback_hz=np.zeros(3)), paced_phase(seeds, LAYOUT, 148))
+    np.testing.assert_allclose(pace_hz_of(paced_phase(seeds[:1], LAYOUT, 148)[0, 48:]), 0.0, atol=1e-6)
+    np.testing.assert_allclose(pace_hz(striding(600, 1.5, False), LAYOUT), 1.5, atol=0.01)
+
+
+def pace_hz_of(channels):
+    """Cycles per second of (sin, cos) phase channels (F, 2) at 60 frames/s."""
+    angle = np.arctan2(channels[:, 0], channels[:, 1])
+    return float(np.median(wrapped(np.diff(angle)))) * 60 / (2 * np.pi)
 
 
 def test_on_circle_and_channels():

@@ -42,6 +42,9 @@ def test_draw_is_the_mean_plus_the_cholesky_factor_times_the_draws(tmp_path):
     back = TypePrior.load(prior.save(tmp_path / "p.type_prior.safetensors"))
     for k in ("mean", "chol", "counts"):
         np.testing.assert_array_equal(getattr(back, k), getattr(prior, k))
+    assert back.phase_hz is None
+    prior.phase_hz = np.array([0.0, 1.25], np.float32)
+    np.testing.assert_array_equal(TypePrior.load(prior.save(tmp_path / "q.type_prior.safetensors")).phase_hz, [0.0, 1.25])
 
 
 def toy_clips(cfg, n=4, t=40):
@@ -71,6 +74,7 @@ def test_fit_pools_the_knots_of_each_type_and_leaves_unseen_types_standard():
         np.testing.assert_allclose(prior.mean[t], mean, atol=1e-5)
         np.testing.assert_allclose(prior.chol[t] @ prior.chol[t].T, cov, atol=1e-5)
         assert prior.counts[t] == sum(len(p[0]) for p in post)
+    assert prior.phase_hz is None  # a model without a phase input has no use for one
     np.testing.assert_array_equal(prior.mean[2], 0)          # a type the clips lack: N(0, I)
     np.testing.assert_array_equal(prior.chol[2], np.eye(4))
     assert prior.counts[2] == 0
@@ -156,6 +160,9 @@ def test_the_generate_commands_model_has_its_type_prior():
     assert prior is not None and prior.mean.shape == (model.cfg.n_types, model.cfg.latent)
     for name in ("walk", "jog", "wave", "walk_back", "side_step"):   # fitted on many knots
         assert prior.counts[MOTION_TYPES.index(name)] > 500
+    # the usual phase paces (the median over each type's training clips): gait rates, a jog's above a walk's
+    walk, jog = (prior.phase_hz[MOTION_TYPES.index(t)] for t in ("walk", "jog"))
+    assert 0.7 < walk < jog < 1.6, (walk, jog)
 
 
 @pytest.mark.parametrize("clip", ["dataset-2_wave-both-hands_exhausted_003", "dataset-2_wave-both-hands_elderly_001",

@@ -120,15 +120,29 @@ def phase_input(x: np.ndarray, layout: FeatureLayout, fps: float = FPS) -> np.nd
     return phase_channels(local_phase(x, layout, fps))
 
 
-def paced_phase(seed_x: np.ndarray, layout: FeatureLayout, total: int, fps: float = FPS) -> np.ndarray:
+def paced_phase(seed_x: np.ndarray, layout: FeatureLayout, total: int, fps: float = FPS,
+                fallback_hz: np.ndarray | None = None) -> np.ndarray:
     """(B, total, 2) phase input for generation from raw seeds (B, S, n_x): each seed's own
-    :func:`phase_input`, then its phase turning on at its :func:`phase_pace`."""
+    :func:`phase_input`, then its phase turning on at its :func:`phase_pace`; where that pace is
+    no faster than the slowest cycle looked for (``BAND_HZ[0]``: the seed shows no cycle) and
+    ``fallback_hz`` (B,) gives one above 0, at that pace instead (the motion type's usual one,
+    :class:`mocapviz.models.type_prior.TypePrior`). Why: a run from a standing start (CMU 127_03)
+    has no step cycle in its first 2 s, and turned on at the band's floor, 0.4 Hz, its phase kept
+    the generated legs nearly still while the body glided on (issue 9: activity 0.16x the real runs')."""
     out = np.zeros((len(seed_x), total, 2), dtype=np.float32)
     for b, sx in enumerate(seed_x):
         angle = local_phase(sx, layout, fps)
-        ahead = angle[-1] + phase_pace(angle) * np.arange(1, total - len(sx) + 1)
+        pace = phase_pace(angle)
+        if fallback_hz is not None and fallback_hz[b] > 0 and pace * fps / (2 * np.pi) <= BAND_HZ[0] + 1e-6:
+            pace = 2 * np.pi * float(fallback_hz[b]) / fps
+        ahead = angle[-1] + pace * np.arange(1, total - len(sx) + 1)
         out[b] = phase_channels(np.concatenate([angle, ahead]))
     return out
+
+
+def pace_hz(x: np.ndarray, layout: FeatureLayout, fps: float = FPS) -> float:
+    """The :func:`phase_pace` of raw frames x (F, n_x) in cycles per second."""
+    return phase_pace(local_phase(x, layout, fps)) * fps / (2 * np.pi)
 
 
 def clip_phases(ds) -> np.ndarray:

@@ -12,6 +12,7 @@ density to the aggregate posterior after training is ex-post density estimation 
 The prior lives beside its checkpoint in ``<stem>.type_prior.safetensors``;
 :func:`mocapviz.training.checkpoint.load_checkpoint` attaches it as ``model.type_prior``, and the
 generator's mean output then decodes the type's mean and its samples draw from the type's Gaussian.
+It also keeps each type's usual phase pace, for seeds that show no step cycle of their own.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from safetensors.numpy import load_file, save_file
 
 from mocapviz.features.ccnet import FeatureLayout
 from mocapviz.features.motion_types import one_hot
-from mocapviz.features.phase import phase_input
+from mocapviz.features.phase import pace_hz, phase_input
 
 SUFFIX = ".type_prior.safetensors"
 
@@ -50,13 +51,19 @@ class TypePrior:
     mean: np.ndarray    # (n_types, L)
     chol: np.ndarray    # (n_types, L, L) lower Cholesky factor of each type's covariance
     counts: np.ndarray  # (n_types,) knots fitted per type; a type with none keeps N(0, I)
+    # (n_types,) a phase model's median phase pace (Hz) of each type's training clips, 0 where none:
+    # the pace its phase turns at after a seed that shows no cycle (features.phase.paced_phase)
+    phase_hz: np.ndarray | None = None
 
     def draw(self, type_index: np.ndarray, e: np.ndarray) -> np.ndarray:
         """z (B, L) of the types ``type_index`` (B,) from standard normal draws ``e`` (B, L)."""
         return self.mean[type_index] + np.einsum("bij,bj->bi", self.chol[type_index], e).astype(np.float32)
 
     def save(self, path) -> Path:
-        save_file({"mean": self.mean, "chol": self.chol, "counts": self.counts}, str(path))
+        arrays = {"mean": self.mean, "chol": self.chol, "counts": self.counts}
+        if self.phase_hz is not None:
+            arrays["phase_hz"] = self.phase_hz
+        save_file(arrays, str(path))
         return Path(path)
 
     @classmethod
@@ -87,17 +94,24 @@ def fit_type_prior(model, norm, clips, progress: bool = False, total: int | None
     cfg = model.cfg
     if not cfg.latent:
         raise ValueError("a type prior needs a model with a latent z (CCNetConfig.latent)")
-    means, variances = {}, {}
+    layout = FeatureLayout.of_model(cfg)
+    means, variances, paces = {}, {}, {}
     for clip in tqdm(clips, desc="type prior", total=total, disable=not progress):
         m, v = knot_posteriors(model, norm, clip)
-        means.setdefault(int(clip["type_index"]), []).append(m)
-        variances.setdefault(int(clip["type_index"]), []).append(v)
+        t = int(clip["type_index"])
+        means.setdefault(t, []).append(m)
+        variances.setdefault(t, []).append(v)
+        if cfg.phase:
+            paces.setdefault(t, []).append(pace_hz(clip["x"], layout))
     mean = np.zeros((cfg.n_types, cfg.latent), np.float32)
     chol = np.tile(np.eye(cfg.latent, dtype=np.float32), (cfg.n_types, 1, 1))
     counts = np.zeros(cfg.n_types, np.int64)
+    phase_hz = np.zeros(cfg.n_types, np.float32)
     for t in means:
         mu, cov = moment_matched(np.concatenate(means[t]), np.concatenate(variances[t]))
         mean[t], counts[t] = mu, sum(map(len, means[t]))
+        if cfg.phase:
+            phase_hz[t] = np.median(paces[t])
         # a tiny ridge: a rare type has fewer knots than z has dimensions
         chol[t] = np.linalg.cholesky(cov + 1e-6 * np.eye(cfg.latent))
-    return TypePrior(mean, chol, counts)
+    return TypePrior(mean, chol, counts, phase_hz if cfg.phase else None)
