@@ -551,6 +551,8 @@ for kind, clip in shown.items():
 #   model's type prior (`mocapviz.models.type_prior`, fitted after training by `python -m data_prep
 #   fit-type-prior`) is each motion type's aggregate posterior over the training clips, one
 #   Gaussian per type; the mean output decodes the type's mean $z$, and samples draw around it.
+#   It also keeps each type's usual phase pace, for a seed that shows no step cycle of its own
+#   (a run from a standing start).
 #
 # The same ten test seeds, mean output and sampled (the command's temperature, chosen on the
 # validation seeds, `mocapviz.tasks.generation_defaults`), with the network's own pace and held,

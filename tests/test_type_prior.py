@@ -185,3 +185,30 @@ def test_the_type_prior_steadies_the_sampled_wavings_feet(ds, clip):
         late = gen.motion(0, d.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False)[-600:]
         jitter[use] = metrics.jitter(metrics.local_positions(late.positions(), late.skeleton)[:, feet], 60)
     assert jitter[True] < 0.8 * jitter[False], jitter
+
+
+def test_a_run_from_a_standing_start_keeps_its_legs_moving(data_dir):
+    """CMU 127_03 starts standing: its first 2 s show no step cycle, and its phase, turned on at
+    the band's floor (0.4 Hz), kept the generated legs nearly still while the body glided on
+    (activity 0.16x the real runs' over seconds 30-60 of 60). Turned on at the jog's usual pace
+    (TypePrior.phase_hz) the legs run (0.52x over seconds 30-60; here 20 s, seconds 10-20)."""
+    from dataclasses import replace as with_field
+
+    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
+    from mocapviz.tasks.generate_bvh import generate_from_seed, load_seed
+    from mocapviz.tasks.generation_quality import References, motion_quality
+    from mocapviz.zoo import find_checkpoint
+
+    model, norm, meta = load_checkpoint(find_checkpoint(str(zoo.committed_path(GENERATION_MODEL))))
+    refs = References(build_dataset(DatasetConfig.quick(), data_dir, progress=False).with_vocabulary(model.cfg.n_types))
+    seed = load_seed(data_dir / "cmu" / "127" / "127_03.bvh")
+    activity = {}
+    for usual_pace in (True, False):
+        if not usual_pace:
+            model.type_prior = with_field(model.type_prior, phase_hz=None)
+        res = generate_from_seed(seed, model, norm, meta, types=["jog"], seconds=20, ik=False)
+        on = res.rig.to_model(res.motion)
+        late = on[res.n_seed + 600:]
+        activity[usual_pace] = motion_quality(late, "jog", refs, float(on.root_positions[:res.n_seed, 1].mean()))[
+            "activity_ratio"]
+    assert activity[True] > 0.4 and activity[False] < 0.3, activity
