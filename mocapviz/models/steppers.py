@@ -245,7 +245,10 @@ class NumpyStepper:
         per character, set_static) beside the phase-functioned decoder's 2K weight sets, J = 2K + 1."""
         s = self.cfg.skip_channels
         plain = np.concatenate([self.dec_w, np.zeros((1, self.dec_w.shape[1]), np.float32)])[None]
-        sets = plain if self.phase_w is None else np.concatenate([plain, self.phase_w.reshape(-1, s + 1, plain.shape[-1])])
+        if self.phase_w is None:
+            sets = plain
+        else:
+            sets = np.concatenate([plain, self.phase_w.reshape(-1, s + 1, plain.shape[-1])])
         return np.ascontiguousarray(sets[:, :, columns].transpose(1, 0, 2).reshape(s + 1, -1))
 
     def _blend(self, traj) -> np.ndarray:

@@ -3,8 +3,9 @@
 Seed frames are fed through the network (teacher forcing), then each new frame is the mean of
 the predicted Gaussian (or a sample from it) with the predicted contact labels, fed back as the
 next input. A CCNet with a latent (``CCNetConfig.latent``) samples its z from the prior instead
-(its type prior given the motion type when it has one: :mod:`mocapviz.models.type_prior`; per frame, or per knot every ``latent_hold`` frames, held or blended: ``latent_lerp``) and
-writes the decoder's mean (the prior's mean z for the mean output). The trajectory
+(its type prior given the motion type when it has one: :mod:`mocapviz.models.type_prior`; per
+frame, or per knot every ``latent_hold`` frames, held or blended: ``latent_lerp``) and writes the
+decoder's mean (the prior's mean z for the mean output). The trajectory
 control c^d comes from one of:
 
 - ``traj``: an array of raw c^d per frame (e.g. taken from a clip; repeated cyclically);
@@ -265,7 +266,8 @@ class Generator:
         phase = None
         if self.cfg.phase:  # a seed without a cycle turns at its type's usual pace (TypePrior.phase_hz)
             usual = getattr(self.type_prior, "phase_hz", None)
-            phase = paced_phase(seed_x, self.layout, total, fallback_hz=None if usual is None else usual[cur_type.argmax(1)])
+            phase = paced_phase(seed_x, self.layout, total,
+                                fallback_hz=None if usual is None else usual[cur_type.argmax(1)])
         for t in tqdm(range(total - 1), desc="generate", disable=not progress):
             if per_frame_types and not np.array_equal(types[:, t + 1], cur_type):
                 if speed is not None:  # a new motion type has its own pace: the network's plan from here on

@@ -5,8 +5,9 @@ Tensors: ``model.*`` (state dict), ``norm.*`` (normalisation statistics), option
 :mod:`mocapviz.models.protocol`), ``model_config`` (JSON of the model's config), ``train_config``,
 ``dataset`` (JSON: hash, test subject, joint names, motion types, fps, training mean joint speed),
 ``step``, ``format``. A latent CCNet's type prior, fitted after training, lives beside the file
-(:func:`mocapviz.models.type_prior.sidecar_path`) and is attached on loading. Files of format ``mocapviz.ccnet.v1`` (before the model registry) have no
-``model`` key and hold a CCNet. Writes are atomic.
+(:func:`mocapviz.models.type_prior.sidecar_path`) and is attached on loading. Files of format
+``mocapviz.ccnet.v1`` (before the model registry) have no ``model`` key and hold a CCNet. Writes
+are atomic.
 """
 
 from __future__ import annotations
