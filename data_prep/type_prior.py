@@ -1,5 +1,5 @@
 """``python -m data_prep fit-type-prior --model ccnet_phase_lerp_scale_root``: fit a latent CCNet's
-prior of z given the motion type (:mod:`mocapviz.models.type_prior`) on the training clips of the
+prior of z given the motion type (:mod:`mocapviz.tasks.type_prior_fit`) on the training clips of the
 CCNet dataset, and write it beside the checkpoint, where loading the model finds it.
 """
 
@@ -20,7 +20,8 @@ def run(a: argparse.Namespace) -> int:
 
     from data_prep.ccnet_dataset import DatasetConfig, build_dataset
     from mocapviz.features.motion_types import MOTION_TYPES
-    from mocapviz.models.type_prior import fit_type_prior, sidecar_path
+    from mocapviz.models.type_prior import sidecar_path
+    from mocapviz.tasks.type_prior_fit import fit_type_prior
     from mocapviz.training.checkpoint import load_checkpoint
     from mocapviz.zoo import find_checkpoint
 

@@ -13,7 +13,8 @@ from mocapviz import metrics
 from mocapviz.features.ccnet import Normaliser
 from mocapviz.features.motion_types import MOTION_TYPES, one_hot
 from mocapviz.models.ccnet import CCNet
-from mocapviz.models.type_prior import TypePrior, fit_type_prior, knot_posteriors, moment_matched, sidecar_path
+from mocapviz.models.type_prior import TypePrior, moment_matched, sidecar_path
+from mocapviz.tasks.type_prior_fit import fit_type_prior, knot_posteriors
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.generation_defaults import GENERATION_MODEL
 from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint

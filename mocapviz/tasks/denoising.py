@@ -31,19 +31,22 @@ RIGHT_LEG = ("RightUpLeg", "RightLeg", "RightFoot", "RightToeBase")
 
 
 def teacher_forced(model, x_norm: np.ndarray, skel_norm: np.ndarray, traj_norm: np.ndarray,
-                   types: np.ndarray, x_raw: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                   types: np.ndarray, x_raw: np.ndarray | None = None, posterior: bool = False) -> dict[str, np.ndarray]:
     """The model's outputs (``mean``, ``sigma``: (T-1, n_continuous), normalised) for frames
     1..T-1 of a clip, each predicted from the true frames before it: x_norm (T, n_x) inputs,
     traj_norm (T, 12) c^d of each frame, skel_norm (n_skel,), types (n_types,) one-hot. Input t
     carries x_t and c^d_{t+1} (as in training). A phase model (``CCNetConfig.phase``) also sees
-    the local phase of the raw frames ``x_raw`` (T, n_x)."""
+    the local phase of the raw frames ``x_raw`` (T, n_x). With ``posterior`` (a latent model),
+    z comes from the posterior given the true next frames, as in training, and the knots'
+    ``z_mean`` and ``z_logvar`` (J, latent) are returned too."""
     if model.cfg.phase:
         traj_norm = np.concatenate([traj_norm, phase_input(x_raw, FeatureLayout.of_model(model.cfg))], axis=1)
     model.eval()
     f = lambda a: torch.as_tensor(np.asarray(a, np.float32))[None]  # noqa: E731
     with torch.no_grad():
-        out = model(x=f(x_norm[:-1]), skel=f(skel_norm), traj=f(traj_norm[1:]), types=f(types))
-    return {k: out[k][0].numpy() for k in ("mean", "sigma")}
+        target = {"target_x": f(x_norm[1:])} if posterior else {}
+        out = model(x=f(x_norm[:-1]), skel=f(skel_norm), traj=f(traj_norm[1:]), types=f(types), **target)
+    return {k: out[k][0].numpy() for k in ("mean", "sigma") + (("z_mean", "z_logvar") if posterior else ())}
 
 
 def teacher_forced_means(model, x_norm: np.ndarray, skel_norm: np.ndarray, traj_norm: np.ndarray,

@@ -267,7 +267,7 @@ class Generator:
         if self.cfg.phase:  # a seed without a cycle turns at its type's usual pace (TypePrior.phase_hz)
             usual = getattr(self.type_prior, "phase_hz", None)
             phase = paced_phase(seed_x, self.layout, total,
-                                fallback_hz=None if usual is None else usual[cur_type.argmax(1)])
+                                fallback_hz=None if usual is None else usual[self._type_index])
         for t in tqdm(range(total - 1), desc="generate", disable=not progress):
             if per_frame_types and not np.array_equal(types[:, t + 1], cur_type):
                 if speed is not None:  # a new motion type has its own pace: the network's plan from here on

@@ -33,12 +33,17 @@ from mocapviz.training.trainer import rolled_out
 COLUMNS = ("sigma", "mean_error", "copy_last", "extrapolate")
 
 
+def teacher_forced_clip(model, norm, clip: dict, posterior: bool = False) -> dict[str, np.ndarray]:
+    """:func:`mocapviz.tasks.denoising.teacher_forced` on a raw clip (dict as
+    ``CCNetDataset.clip_arrays``), normalised by ``norm``."""
+    return teacher_forced(model, norm.norm_x(clip["x"]), norm.norm_skel(clip["skel"]), norm.norm_traj(clip["traj"]),
+                          one_hot([clip["type_index"]], model.cfg.n_types)[0], clip["x"], posterior=posterior)
+
+
 def one_step_prediction(model, norm, clip: dict) -> tuple[np.ndarray, np.ndarray]:
     """Normalised mean and sigma (T-1, n_continuous) of frames 1..T-1 of a raw clip (dict as
-    ``CCNetDataset.clip_arrays``), each from the true frames before it
-    (:func:`mocapviz.tasks.denoising.teacher_forced`)."""
-    out = teacher_forced(model, norm.norm_x(clip["x"]), norm.norm_skel(clip["skel"]), norm.norm_traj(clip["traj"]),
-                         one_hot([clip["type_index"]], model.cfg.n_types)[0], clip["x"])
+    ``CCNetDataset.clip_arrays``), each from the true frames before it."""
+    out = teacher_forced_clip(model, norm, clip)
     return out["mean"], out["sigma"]
 
 
