@@ -64,24 +64,37 @@ def dataset(quick: bool, data_dir=None, n_types: int | None = None):
 
 
 def denoising_clips(ds) -> dict[str, list[dict]]:
-    """The clips of "D" (test split) and "S-CMU" (every CMU clip), at least 2 frames each."""
+    """The clips of "D" (test split), "S-CMU" (every CMU clip, in training: see above) and
+    "S-CMU-test" (the CMU clips of the test split), at least 2 frames each; and "val" (the
+    validation split, where the causal smoother's k is chosen)."""
     c = ds.clips
     long = (c.stop - c.start) >= 2
-    pick = {"D": (c.split == "test") & long, "S-CMU": (c.source == "cmu") & long}
+    pick = {"D": (c.split == "test") & long, "S-CMU": (c.source == "cmu") & long,
+            "S-CMU-test": (c.source == "cmu") & (c.split == "test") & long, "val": (c.split == "val") & long}
     return {k: [ds.clip_arrays(int(i)) for i in c.index[m.values]] for k, m in pick.items()}
 
 
 def denoising_table(models: dict, ds, noise_stds=NOISE_STDS, seed: int = 0, progress: bool = False):
-    """Table 1 rows for every dataset of :func:`denoising_clips`; the first model's normaliser is
-    the reference units."""
+    """Table 1 rows for every dataset of :func:`denoising_clips` but "val", with the predictors
+    that do nothing (:mod:`mocapviz.tasks.do_nothing`; the smoother's k and degree chosen on the
+    validation clips per noise level); the first model's normaliser is the reference units."""
     import pandas as pd
 
     from mocapviz.tasks.denoising import Repairer, denoising_errors, summary_table
+    from mocapviz.tasks.do_nothing import ConstantVelocity, CopyLast, choose_smoother
 
     ref = next(iter(models.values()))[1]
     reps = {k: Repairer(m, n, reference=ref) for k, (m, n) in models.items()}
-    tables = [summary_table(denoising_errors(reps, clips, noise_stds, seed=seed, progress=progress), name)
-              for name, clips in denoising_clips(ds).items()]
+    reps.update({b.name: b for b in (CopyLast(ref), ConstantVelocity(ref))})
+    clips = denoising_clips(ds)
+    val = clips.pop("val")
+    smoothers = {}
+    for std in noise_stds:
+        s = choose_smoother(ref, val, std, seed=seed)[0]
+        smoothers[std] = {f"causal_smoother(k={s.k},d={s.degree})": s}
+    tables = [summary_table(denoising_errors(reps, cl, noise_stds, seed=seed, progress=progress,
+                                             per_noise=smoothers.__getitem__), name)
+              for name, cl in clips.items() if cl]
     return pd.concat(tables, ignore_index=True)
 
 

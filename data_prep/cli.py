@@ -76,6 +76,16 @@ def _apps_tables(args) -> int:
     return run(args)
 
 
+def _pack(args) -> int:
+    from data_prep.pack import run
+    return run(args)
+
+
+def _one_step(args) -> int:
+    from data_prep.one_step_report import run
+    return run(args)
+
+
 def _train_cvae(args) -> int:
     from data_prep.train_cvae import run
     return run(args)
@@ -135,6 +145,18 @@ def parser() -> argparse.ArgumentParser:
                         "baselines into results/ (see data_prep/apps_tables.py)")
     add_apps_arguments(ap)
     ap.set_defaults(func=_apps_tables)
+
+    from data_prep.pack import add_arguments as add_pack_arguments
+    pk = sub.add_parser("pack-ccnet", help="a compact copy of the CCNet dataset (~30 MB) for a machine without "
+                        "the raw data, e.g. a lent GPU (see data_prep/pack.py)")
+    add_pack_arguments(pk)
+    pk.set_defaults(func=_pack)
+
+    from data_prep.one_step_report import add_arguments as add_one_step_arguments
+    os_ = sub.add_parser("one-step", help="teacher-forced one-step error of CCNet models on held-out clips "
+                         "beside copy-last and constant velocity (see data_prep/one_step_report.py)")
+    add_one_step_arguments(os_)
+    os_.set_defaults(func=_one_step)
 
     from data_prep.train_cvae import add_arguments as add_cvae_arguments
     v = sub.add_parser("train-cvae", help="train the 4D motion CVAE (phases 1, 2, ablations) or write its "

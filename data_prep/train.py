@@ -19,8 +19,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="run folder (resumed if it holds a checkpoint)")
     p.add_argument("--model", help="registered model to train instead of the config's (ccnet, erd, dae_lstm, pfnn)")
     p.add_argument("--steps", type=int)
+    p.add_argument("--size", help="model size instead of the config's (quick, default, wide, paper)")
     p.add_argument("--batch-size", type=int)
     p.add_argument("--eval-every", type=int)
+    p.add_argument("--device", help="torch device to train on (cpu, cuda)")
+    p.add_argument("--minutes", type=float, help="a time budget: the steps are set from the measured step time")
+    p.add_argument("--packed", help="train on a compact dataset copy (data_prep/pack.py) instead of the raw data")
     p.add_argument("--data-dir")
     p.add_argument("--dataset", choices=("full", "quick"), default="full",
                    help="CCNet dataset: full (HDM05 + CMU + every Bandai take) or quick (3 Bandai takes per content)")
@@ -41,14 +45,18 @@ def run(a: argparse.Namespace) -> int:
     if a.config not in TRAIN_CONFIGS:
         raise KeyError(f"unknown training config {a.config!r}; choose from {', '.join(TRAIN_CONFIGS)}")
     cfg = TRAIN_CONFIGS[a.config]
-    for name in ("model", "steps", "batch_size", "eval_every"):
+    for name in ("model", "size", "steps", "batch_size", "eval_every", "device", "minutes"):
         if getattr(a, name):
             cfg = replace(cfg, **{name: getattr(a, name)})
     if a.eval_every:
         cfg = replace(cfg, checkpoint_every=a.eval_every)
     rank = rank_from_env()
-    ds = build_dataset(DatasetConfig.quick() if a.dataset == "quick" else DatasetConfig(), a.data_dir,
-                       progress=rank == 0)
+    if a.packed:
+        from data_prep.pack import unpack
+        ds = unpack(Path(a.packed))
+    else:
+        ds = build_dataset(DatasetConfig.quick() if a.dataset == "quick" else DatasetConfig(), a.data_dir,
+                           progress=rank == 0)
     ckpt = train(ds, cfg, a.out, resume=not a.no_resume)
     if rank == 0:
         _, _, meta = load_checkpoint(ckpt)

@@ -91,12 +91,14 @@ class Repairer:
 
 
 def denoising_errors(repairers: dict[str, Repairer], clips: list[dict], noise_stds, seed: int = 0,
-                     progress: bool = False) -> dict[tuple[float, str], np.ndarray]:
+                     progress: bool = False, per_noise=None) -> dict[tuple[float, str], np.ndarray]:
     """Per-frame errors {(noise_std, model): (n_frames,)} over ``clips`` (dicts with raw ``x``,
     ``traj``, ``skel``, ``type_index``, as ``CCNetDataset.clip_arrays``). Every model sees the
     same noisy frames (drawn per noise level and clip from ``seed``). The reference model's
     normaliser (the first repairer's ``ref``) sets the units. Model ``"noisy_input"`` is the
-    error of the noisy frame itself: what doing nothing scores."""
+    error of the noisy frame itself (it sees the frame it is scored on, which no causal predictor
+    does). ``per_noise``: a function of the noise std giving more repairers for that level only
+    (:func:`mocapviz.tasks.do_nothing.choose_smoother` picks a smoother per level)."""
     from tqdm.auto import tqdm
 
     ref = next(iter(repairers.values())).ref
@@ -104,11 +106,12 @@ def denoising_errors(repairers: dict[str, Repairer], clips: list[dict], noise_st
     n = len(ref.x_mean)
     errs: dict[tuple[float, str], list] = {}
     for k, std in enumerate(tqdm(list(noise_stds), desc="denoising", disable=not progress)):
+        level = dict(repairers, **(per_noise(std) if per_noise else {}))
         for c, clip in enumerate(clips):
             clean = ref.norm_x(clip["x"])
             noisy = add_noise(clean, std, n, np.random.default_rng([seed, k, c]))
             errs.setdefault((std, "noisy_input"), []).append(frame_errors(noisy[1:, :n], clean[1:, :n], varying))
-            for name, rep in repairers.items():
+            for name, rep in level.items():
                 pred = rep.repair(noisy, clip["skel"], clip["traj"], clip["type_index"])
                 errs.setdefault((std, name), []).append(frame_errors(pred, clean[1:, :n], varying))
     return {k: np.concatenate(v) for k, v in errs.items()}

@@ -33,14 +33,14 @@ def _optim_tensors(opt: torch.optim.Optimizer) -> tuple[dict, str]:
     tensors = {}
     for pid, st in sd["state"].items():
         for k, v in st.items():
-            tensors[f"optim.{pid}.{k}"] = torch.as_tensor(v).detach().clone()
+            tensors[f"optim.{pid}.{k}"] = torch.as_tensor(v).detach().cpu().clone()
     return tensors, json.dumps(sd["param_groups"])
 
 
 def save_checkpoint(path, model: torch.nn.Module, normaliser: Normaliser, meta: dict | None = None,
                     optimizer: torch.optim.Optimizer | None = None) -> Path:
     path = Path(path)
-    tensors = {f"model.{k}": v.detach().contiguous().clone() for k, v in model.state_dict().items()}
+    tensors = {f"model.{k}": v.detach().cpu().contiguous().clone() for k, v in model.state_dict().items()}
     tensors.update({f"norm.{k}": torch.from_numpy(v) for k, v in normaliser.state_dict().items()})
     metadata = {"format": FORMAT, "model": model.name, "model_config": model.cfg.to_json()}
     for k, v in (meta or {}).items():

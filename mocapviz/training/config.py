@@ -54,6 +54,8 @@ class TrainConfig:
     eval_every: int = 250
     checkpoint_every: int = 250
     threads: int = 1               # 1 is fastest on a shared 2-core machine; raise on your own
+    device: str = "cpu"             # "cuda" trains on a GPU (TF32 matmuls; the data stays on the GPU)
+    minutes: float = 0.0            # > 0: a time budget; ``steps`` is then set from the measured step time
 
     def __post_init__(self):
         if self.optimizer not in OPTIMIZERS:
@@ -189,4 +191,16 @@ TRAIN_CONFIGS = {
     "phase_lerp_scale_root": replace(PHASE_LERP, body_scale=(0.9, 1.25), root_without_z=True),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
+    # The paper's network, loss and batch on one GPU for a time budget (tools/gpu_train.sh): width
+    # 256, dropout 0.5, input noise 0.03, batches of 256 windows; named deviations: Adam (see
+    # above), windows of 120 frames (the dataset's: 240 drops most HDM05 and every CMU body).
+    "paper_gpu": TrainConfig(size="paper", steps=10 ** 6, batch_size=256, lr=1e-3, lr_final=1e-5,
+                             optimizer="adam", device="cuda", minutes=6.0, eval_every=1),
+    # ... and a named deviation: the mean is x_t + the decoder's output (CCNetConfig.residual)
+    # On a CPU (80 minutes, sharing 2 cores): the same with C = 96, skip 128 ("wide"), batches of 32
+    "next_frame_cpu": TrainConfig(size="wide", steps=10 ** 6, batch_size=32, lr=1e-3, lr_final=1e-5,
+                                  optimizer="adam", minutes=80.0, residual=True, eval_every=1),
+    "paper_gpu_residual": TrainConfig(size="paper", steps=10 ** 6, batch_size=256, lr=1e-3, lr_final=1e-5,
+                                      optimizer="adam", device="cuda", minutes=6.0, residual=True,
+                                      eval_every=1),
 }

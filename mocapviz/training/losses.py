@@ -19,7 +19,7 @@ beta-NLL (``nll_beta`` > 0; Seitzer et al. 2022, "On the pitfalls of heterosceda
 estimation"): each channel's NLL is weighted by stop-gradient(sigma^(2 beta)) in the total. The
 gradient of the plain NLL on a mean is (mean - target) / sigma^2, so a channel the network has
 not fitted yet gets a large sigma, which shrinks the pull on its mean, which keeps it unfitted.
-Issue 9 measured exactly that: the committed CCNets' one-step mean errs by ~0.5 training
+We measured exactly that: the committed CCNets' one-step mean errs by ~0.5 training
 standard deviations on the median channel, 25x what repeating the last frame errs
 (:mod:`mocapviz.tasks.one_step`), with sigma ~1 there, while ~10 % of the channels are nailed
 (sigma < 0.04). beta = 1 gives the mean the gradient of the squared error; 0 is the paper's

@@ -177,14 +177,17 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         ds = replace(ds, normaliser=ds.normaliser.per_body(ds.skel[(ds.clips.split == "train").values]))
     if cfg.body_scale:  # c^s normalised over the scaled bodies training sees (the checkpoint keeps it)
         ds = replace(ds, normaliser=ds.normaliser.body_scaled(*cfg.body_scale))
-    data = WindowData(ds, cfg.window, phase=cfg.phase)
+    device = torch.device(cfg.device)
+    if device.type == "cuda":  # TF32, not bf16: x_{t+1} differs from x_t by ~0.01 std, below bf16's step
+        torch.backends.cuda.matmul.allow_tf32 = torch.backends.cudnn.allow_tf32 = True
+    data = WindowData(ds, cfg.window, phase=cfg.phase).to(device)
     if len(data.train) == 0:
         raise ValueError("the dataset has no training windows")
     if len(data.val) == 0:
         raise ValueError("the dataset has no validation windows (rebuild it: dataset version >= 2)")
     model_cls = model_class(cfg.model)
     torch.manual_seed(cfg.seed)
-    model = model_cls(cfg.model_config(data.layout, ds.normaliser))
+    model = model_cls(cfg.model_config(data.layout, ds.normaliser)).to(device)
     loss_fn = LOSSES[model.name]
     if cfg.rollout_from and not hasattr(model, "stepper"):
         raise ValueError(f"rollout_from needs a model with an incremental stepper (CCNet), not {cfg.model!r}")
@@ -193,6 +196,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     opt = cfg.make_optimizer(model.parameters())
     start = 0
     rows: list[dict] = []
+    if cfg.minutes and resume and ckpt.is_file():
+        raise ValueError("a run with a time budget (minutes) cannot be resumed: its steps depend on the machine")
     if resume and ckpt.is_file():
         _, _, meta = load_checkpoint(ckpt, optimizer=opt, model=model)
         if TrainConfig.from_json(meta["train_config"]) != cfg:
@@ -210,9 +215,19 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     meta = dict(train_config=cfg.to_json(), dataset=json.dumps(_dataset_meta(ds)))
     end = cfg.steps if stop_after is None else min(cfg.steps, stop_after)
     t0 = time.perf_counter() - (float(rows[-1]["seconds"]) if rows else 0.0)
-    bar = tqdm(range(start, end), initial=start, total=cfg.steps, desc=f"train {cfg.model}-{cfg.size}",
+    bar = tqdm(range(start, 10 ** 9 if cfg.minutes else end), initial=start, total=cfg.steps, desc=f"train {cfg.model}-{cfg.size}",
                disable=not progress or rank != 0)
+    timer = StepBudget(cfg.minutes, start) if cfg.minutes else None
     for step in bar:
+        if timer is not None and (steps := timer.steps(step) or timer.overrun(step, cfg.steps)):
+            # the budget's steps, measured on this machine: the schedule and cadence follow them
+            every = max(cfg.eval_every, steps // 10)  # about ten evaluations, or fewer if asked
+            cfg = replace(cfg, steps=steps, eval_every=every, checkpoint_every=every)
+            end = cfg.steps if stop_after is None else min(cfg.steps, stop_after)
+            meta = dict(meta, train_config=cfg.to_json())
+            bar.total = cfg.steps
+        if step >= end:
+            break
         lr = lr_at(cfg, step)
         for group in opt.param_groups:
             group["lr"] = lr
@@ -242,9 +257,10 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
                    seconds=round(time.perf_counter() - t0, 2))
         # evaluate on the schedule only (not at a stop_after step), so interrupted runs log and
         # select exactly what an uninterrupted run does
-        if done % cfg.eval_every == 0 or done == cfg.steps:
-            va = evaluate(model, data, data.val, cfg.lambdas, kl_weight=cfg.kl_weight)
-            ev = evaluate(model, data, data.test, cfg.lambdas, kl_weight=cfg.kl_weight)
+        if (done % cfg.eval_every == 0 and (timer is None or timer.decided)) or done == cfg.steps:
+            eval_batch = 512 if device.type == "cuda" else 128
+            va = evaluate(model, data, data.val, cfg.lambdas, batch=eval_batch, kl_weight=cfg.kl_weight)
+            ev = evaluate(model, data, data.test, cfg.lambdas, batch=eval_batch, kl_weight=cfg.kl_weight)
             row.update(val_nll=round(va["nll"], 5), val_loss=round(va["loss"], 5),
                        test_nll=round(ev["nll"], 5), test_loss=round(ev["loss"], 5))
             # select on the logged (rounded) value, so that a resumed run restores the same best
@@ -258,12 +274,41 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         rows.append(row)
         if rank == 0:
             bar.set_postfix(loss=f"{row['loss']:.1f}", val_nll=row["val_nll"], best=f"{best_val:.1f}")
-            if done % cfg.checkpoint_every == 0 or done == end:
+            if (done % cfg.checkpoint_every == 0 and (timer is None or timer.decided)) or done == end:
                 save_checkpoint(ckpt, model, ds.normaliser, dict(meta, step=str(done)), optimizer=opt)
                 write_log(csv_path, rows)
     if world > 1:
         dist.barrier()
     return ckpt
+
+
+class StepBudget:
+    """Turns a time budget into a step count: times steps ``warmup``..``warmup + measure`` of a
+    run and returns (once, at the step after them) how many steps fit ``minutes`` in all,
+    leaving 5 % for the evaluations."""
+
+    def __init__(self, minutes: float, start: int, warmup: int = 5, measure: int = 25):
+        self.seconds, self.t0 = 60.0 * minutes, time.perf_counter()
+        self.at, self.until = start + warmup, start + warmup + measure
+        self.t_at = None
+        self.decided = False  # the steps are set: the cadence of evaluations is known
+
+    def steps(self, step: int) -> int | None:
+        if step == self.at:
+            self.t_at = time.perf_counter()
+        if step != self.until or self.t_at is None:
+            return None
+        now = time.perf_counter()
+        per_step = (now - self.t_at) / (self.until - self.at)
+        self.decided = True
+        return step + max(1, int(0.95 * (self.seconds - (now - self.t0)) / per_step))
+
+    def overrun(self, step: int, steps: int) -> int | None:
+        """``step + 1`` (this step is the last) once the budget is spent and more steps remain
+        (the machine slowed after the measurement, e.g. another run started beside this one)."""
+        if step > self.until and step + 1 < steps and time.perf_counter() - self.t0 > self.seconds:
+            return step + 1
+        return None
 
 
 def _dataset_meta(ds) -> dict:
