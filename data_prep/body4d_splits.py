@@ -28,7 +28,7 @@ TEST_SOURCES = ("hdm05",)
 TEST_SUBJECTS = ("cmu35", "cmu09")
 TAKES_SHARE = 0.1
 # Recorded genders (0 male, 1 female) for the shape prior (mocapviz.bodies.shape_fit). HDM05's
-# five actors are men (the issue's statement of the HDM05 documentation); CMU's subset README and
+# five actors are men (as the HDM05 documentation states); CMU's subset README and
 # index record no gender, and Bandai records neither actor nor gender per take: those stay 0.5.
 SUBJECT_GENDER = {s: 0.0 for s in ("bd", "bk", "dg", "mm", "tr")}
 

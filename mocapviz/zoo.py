@@ -23,7 +23,7 @@ from mocapviz.training.trainer import train
 
 MODELS = {f"ccnet_{k}": cfg for k, cfg in TRAIN_CONFIGS.items()}  # name -> the training config that makes it
 # the CCNet baselines of paper §4.1.2 (mocapviz.models.baseline), each trained as its committed file was
-# (pfnn: 400 steps, what one shared core had time for; models/README.md)
+# (pfnn: 400 steps, what one shared core had time for; docs/experiments.md)
 MODELS.update({f"{m}_quick": replace(TRAIN_CONFIGS["quick"], model=m, steps=n, eval_every=n, checkpoint_every=n)
                for m, n in (("erd", 1200), ("dae_lstm", 1200), ("pfnn", 400))})
 ZOO_ENV = "MOCAPVIZ_ZOO"  # folders (os.pathsep-separated) searched first for a model by name

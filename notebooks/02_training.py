@@ -274,7 +274,7 @@ for label, g in generated.items():
     display(Image(filename=str(paths[0])))
 
 # %% [markdown]
-# ## 5 · Does it move, and like a person? Pose-level metrics (issue 9)
+# ## 5 · Does it move, and like a person? Pose-level metrics
 #
 # Autoregressive models often settle into a mean pose, or wander off the space of real poses.
 # The measures read the **poses**: joint positions from FK, relative to the root joint and turned
@@ -350,7 +350,7 @@ fig.tight_layout()
 show_figure(fig)
 
 # %% [markdown]
-# ## 5b · Why: the one-step prediction (issue 9's diagnosis)
+# ## 5b · Why: the one-step prediction
 #
 # Before a network can run on its own output, it must predict the next frame from the *true*
 # past better than doing nothing does. `mocapviz.tasks.one_step` feeds validation clips
@@ -389,7 +389,7 @@ print("committed: " + ", ".join(f"{name} C = {m.cfg.channels}" for name, (m, _) 
 
 # %% [markdown]
 # So the default width cannot even carry a frame, and the wide one only roughly. Width is not
-# the whole story, though: issue 9's notes record a run of the paper's width (C = 256) whose
+# the whole story, though: in a run of the paper's width (C = 256, config `paper_width`) the
 # validation NLL fell far below both committed models' while its one-step rotation error
 # stayed near theirs, and runs without dropout and with beta-NLL (`TrainConfig.nll_beta`, which
 # keeps a large $\sigma$ from silencing the pull on an unfitted mean) that changed neither the
@@ -486,7 +486,7 @@ for src, q in by_source.items():
 # training and in generation: a new draw bends $z$'s path but never jumps it. Its predicted
 # trajectory control (the free-running plan) is decoded without $z$ (`traj_without_z`): with
 # $z$ in it, the mean output's $z = 0$ planned an average pace, and the run slowed to a third.
-# Sampled jitter per seed, both models, against the issue's 3x bar:
+# Sampled jitter per seed, both models, against the moving bar's 3x:
 
 # %%
 sampled = {"ccnet_phase (z per frame)": other_quality["ccnet_phase", "sample"],
@@ -504,7 +504,7 @@ fig.tight_layout()
 show_figure(fig)
 for label, q in sampled.items():
     ok = sum(map(within_issue_bar, q.values()))
-    print(f"{label}: sampled, {ok} of {len(q)} seeds within the issue's bars (never frozen, activity 0.5-2x, "
+    print(f"{label}: sampled, {ok} of {len(q)} seeds within the moving bar (never frozen, activity 0.5-2x, "
           f"jitter <= 3x); {sum(map(moves_like_real, q.values()))} pass moves_like_real")
 
 # %% [markdown]
@@ -573,7 +573,7 @@ print(pd.concat({name: root_bias_table(*zoo.load(name, retrain_if_missing=False)
 for (pace, mode), q in runs.items():
     c = q["per_clip"]
     print(f"{GENERATION_MODEL}, pace {pace:7s}, {mode:26s}: {sum(map(within_issue_bar, c.values()))} of {len(c)} "
-          f"within the issue's bar, {sum(map(moves_like_real, c.values()))} move like the real clips; root speed "
+          f"within the moving bar, {sum(map(moves_like_real, c.values()))} move like the real clips; root speed "
           f"{min(v['root_speed_ratio'] for v in c.values()):.2f}-{max(v['root_speed_ratio'] for v in c.values()):.2f}x")
 print(pd.concat({f"{pace}, {mode}": pd.DataFrame(q["per_clip"]).T[["activity_ratio", "jitter_ratio", "root_speed_ratio",
                                                                   "root_height_ratio"]]
@@ -620,7 +620,7 @@ for clip, c in runs["seed", "mean"]["per_clip"].items():
 #   real frame's change, section 5b); with a $z$ per frame (`ccnet_phase`) it still jitters
 #   several times more than real motion, with a blended $z$ (`ccnet_phase_lerp`) not on most
 #   seeds (section 5e prints which).
-#   Issue 9 records what else we tried: a residual
+#   `docs/experiments.md` records what else we tried: a residual
 #   mean (on every channel it drifts without bound; on the rotations and positions only it never
 #   freezes but tumbles through impossible poses, 6-26x the real pose distance; a leak,
 #   mean = g x_t + output with g = 0.9 or 0.98, freezes every seed), constant input offsets as
@@ -630,7 +630,7 @@ for clip, c in runs["seed", "mean"]["per_clip"].items():
 #   $z$ drawn instead of the frame (`TrainConfig.latent`, a conditional VAE on the causal stack:
 #   sampled frames then vary by $z$ rather than by per-frame noise, but the mean output still
 #   froze on most seeds), and the phase as an input only (the network then barely used it:
-#   `models/README.md` has the runs).
+#   `docs/experiments.md` has the runs).
 # * **Speed.** The incremental generator (each block keeps its past inputs) makes a frame cost one
 #   small matmul chain per block: thousands of frames per second on a laptop CPU, against the
 #   ~65 fps the paper reports for its LibTorch demo.

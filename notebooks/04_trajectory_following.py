@@ -32,7 +32,7 @@ FIG_DIR = "../figures"
 # frame, the closest distance of the root's ground projection to the target curve, averaged over
 # the generation; mean ± std over all (seed, path) pairs, in cm. All characters of one model and
 # path are generated in one batch. We use the **mean** output: sampling from our CCNet is noise
-# (issue 9's measurement), while the paper sampled. A character that stands still at the start
+# (measured in notebook 02 and `docs/experiments.md`), while the paper sampled. A character that stands still at the start
 # is close to the curve too, so we add `covered`: the share of the target's points that the root
 # passed within 0.5 m of.
 
@@ -103,7 +103,7 @@ print(f"CCNet {m.loc[MODEL, 'mean_cm']:.1f} cm vs baselines {', '.join(f'{k} {v:
 # %% [markdown]
 # **Where the gap comes from.** The paper's CCNet trained for 2000 epochs on a GPU; ours for
 # minutes on one CPU core (models/README.md), and the committed model's mean output freezes for
-# some seeds (issue 9): a character that slows down or freezes falls behind the per-frame target
+# some seeds (notebook 02): a character that slows down or freezes falls behind the per-frame target
 # point, its $\mathbf c^d$ then points far ahead, and the distance grows (see `covered`). Our
 # baselines are small and briefly trained too, PFNN for a third of the other baselines' steps;
 # the paper's PFNN and ERD-4LR sizes are not known (its supplementary is not available).

@@ -170,8 +170,8 @@ if not QUICK:
 # numbers. With `ccnet_default` the keys act as asked on average: over the five locomotion test
 # seeds of `tests/test_control.py`, holding left for 2 s turns the path ~0.9 rad more to the left
 # than holding right, and three "up" presses make it ~1 m/s faster; a type key blends the label
-# as the paper says. The gap: that model is not yet a good generator (issue 9: 8 of 10 test seeds
+# as the paper says. The gap: that model is not yet a good generator (`docs/experiments.md`: 8 of 10 test seeds
 # freeze in free running, and without keys its walk drifts faster than the seed), so single
 # sessions turn and speed up unevenly, and the printed segment numbers above vary from seed to
-# seed. Control cannot be better than the model that follows the c^d; rerun with the model of
-# issue 9 when it lands (`MODEL = ...`).
+# seed. Control cannot be better than the model that follows the c^d; rerun with the recommended
+# generator, `ccnet_phase_lerp_scale_root` (`MODEL = ...`).

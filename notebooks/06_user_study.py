@@ -78,7 +78,7 @@ fig_dir.mkdir(parents=True, exist_ok=True)
 # clip also gives a model-against-model pair, so the three pairs of a clip form a triad that the
 # intransitivity rule can check.
 #
-# **The committed models often freeze** (issue 9: `ccnet_v3_rmsprop` on every seed, `ccnet_default`
+# **The committed models often freeze** (`docs/experiments.md`: `ccnet_v3_rmsprop` on every seed, `ccnet_default`
 # on half of the locomotion test seeds: the pose stops moving within seconds while the root
 # glides), so this kit is a demonstration of the tool, not material for a real study: a real
 # study needs a model that moves. The activity (mean local joint speed) and the
@@ -248,7 +248,7 @@ display(t4[["quantity", "method", "paper", "value", "low", "high", "agrees"]])
 # printed below):
 #
 # * **Table 2's t-values do not follow from its means and SDs** under any test or reading:
-#   Welch's t for the DAE-LSTM row is about −12.7, as the issue said, not −11.96; ERD-4LR's
+#   Welch's t for the DAE-LSTM row is about −12.7, not −11.96; ERD-4LR's
 #   and PFNN's are further off. **Its p-values do follow from its t-values** with 30 degrees of
 #   freedom (ERD-4LR and PFNN exactly; DAE-LSTM at about 29.99): an independent-samples test of
 #   16 against 16 participants, Student's (or Welch's with near-equal variances), not a paired
@@ -318,7 +318,7 @@ show_figure(fig)
 # ## 6 · Summary
 #
 # * The kit and the analysis are ready to run a real study; the kit above is built from models
-#   that mostly freeze (issue 9), so it is only a demonstration, and nothing in this notebook is a user
+#   that mostly freeze (`docs/experiments.md`), so it is only a demonstration, and nothing in this notebook is a user
 #   study result.
 # * The paper's Table 2 t-values do not follow from its means and SDs; its p-values follow from
 #   its t-values as an independent-samples test with 30 df; its SDs fit 16 integer counts per

@@ -241,5 +241,5 @@ pd.Series(spread, name="spread across the 8 walking sequences at 80 ms (rad)").r
 #   AM-GAN's published numbers stay better than ours at every horizon; the paper's QuaterNet
 #   row is better or worse than ours depending on the horizon.
 #
-# ERD-4LR is not in the project yet (the applications issue), so only the paper's ERD-4LR row is
-# shown. Discussion is not available: S5 discussion is missing from our data.
+# ERD-4LR is not trained on H3.6M here (`erd_quick` is trained on dataset v4), so only the
+# paper's ERD-4LR row is shown. Discussion is not available: S5 discussion is missing from our data.

@@ -108,7 +108,7 @@ print(f"CVAE fits: {setup.fit.steps} Adam steps (lr {setup.fit.lr}) on {setup.fi
 # %% [markdown]
 # ## Time to predict one sequence
 #
-# One cycle alone (no batching), at this notebook's settings; the issue's target is at most 60 s.
+# One cycle alone (no batching), at this notebook's settings; our target is at most 60 s.
 
 # %%
 mesher = make_mesher(body, ds.gamma_scale, setup.fit_vertices)

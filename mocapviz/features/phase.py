@@ -1,6 +1,6 @@
 """A local motion phase per frame: where the body is in its movement cycle (an angle).
 
-Why (issue 9): a network that regresses the mean of the next frame averages the continuations it
+Why: a network that regresses the mean of the next frame averages the continuations it
 cannot tell apart; once its own blurred output is its past, it cannot tell where in the gait
 cycle it is, the average of the cycle is a still pose, and generation freezes. A phase input
 makes the continuation one instead of many: the network learns the pose at each phase, and in
@@ -128,7 +128,7 @@ def paced_phase(seed_x: np.ndarray, layout: FeatureLayout, total: int, fps: floa
     ``fallback_hz`` (B,) gives one above 0, at that pace instead (the motion type's usual one,
     :class:`mocapviz.models.type_prior.TypePrior`). Why: a run from a standing start (CMU 127_03)
     has no step cycle in its first 2 s, and turned on at the band's floor, 0.4 Hz, its phase kept
-    the generated legs nearly still while the body glided on (issue 9: activity 0.16x the real runs')."""
+    the generated legs nearly still while the body glided on (measured: activity 0.16x the real runs')."""
     out = np.zeros((len(seed_x), total, 2), dtype=np.float32)
     for b, sx in enumerate(seed_x):
         angle = local_phase(sx, layout, fps)

@@ -27,10 +27,10 @@ class CCNetConfig:
     # residual: the mean is x_t + decoder output (the network predicts the change to the next
     # frame). Off by default: the paper's network is not residual, and ours with it no longer
     # froze but drifted without bound in generation (mean |z| of the frame 0.6 -> 23 over 60 s,
-    # issue 9). False for checkpoints saved before the option existed.
+    # docs/experiments.md). False for checkpoints saved before the option existed.
     residual: bool = False
     # residual_ranges: the mean adds x_t only on these [start, stop) channel ranges of the
-    # continuous part. Tried in issue 9 (dataset v4): with every channel residual the root height
+    # continuous part. Tried on dataset v4: with every channel residual the root height
     # random-walked to -23x..+37x the seed's in 60 s; with the rotations and positions residual and
     # the velocities and root block absolute, generation never froze and kept its height, but
     # tumbled through impossible poses (6-26x the real pose distance). Off by default.
@@ -44,20 +44,20 @@ class CCNetConfig:
     # Ling et al. 2020's motion VAE; 0 = the paper's network). The decoder sees the skip sum plus
     # a projection of z before its ReLU; in training z comes from a posterior that also sees the
     # true next frame, in generation from the prior (a draw when sampling, its mean for the mean
-    # output). Tried in issue 9: a Gaussian output trained on one-step targets averages the
+    # output). Tried: a Gaussian output trained on one-step targets averages the
     # possible continuations (the mean freezes), and its per-frame sigma is far above a real
     # frame's change (samples are noise). Drawing z instead of the frame lowered the sampled
     # jitter (default width, N(0, I) prior, rollouts from frame 40: 2-33x the real clips', and
     # 0.4-7x with the Generator's noise_correlation 0.95, against ccnet_wide's 25-909x), but the
     # mean output still froze on 6 of 10 test seeds: the causal stack tracks its input no better
     # (one_step.drift_table, depth 1: 0.24 against ccnet_wide's 0.17). Off by default; the runs
-    # are in models/README.md.
+    # are in docs/experiments.md.
     latent: int = 0
     posterior_hidden: int = 256
     # learned_prior: z's prior is N(mu(past), sigma(past)^2) from the skip sum (a conditional
     # prior, as in VRNN-style sequence VAEs) instead of N(0, I); the mean output then uses the
     # prior's mean, the likeliest z for this past, not 0. It did not help either: config
-    # wide_latent froze on 6 of 10 test seeds, both walks among them (issue 9). With knots of z
+    # wide_latent froze on 6 of 10 test seeds, both walks among them. With knots of z
     # (latent_hold), each knot's prior reads the past at the frame generation draws it
     # (models.ccnet.knot_prior_frames).
     learned_prior: bool = False
@@ -67,7 +67,7 @@ class CCNetConfig:
     # per-frame innovation. Why: drawn independently every frame, a per-frame z made samples
     # shake (ccnet_phase: jitter 2.7-28x the real clips'), and held over frames at generation only
     # (noise_correlation 0.95) it was a push the network never saw persist (walks ran at ~3x pace).
-    # Tried on the phase config (run P9 in models/README.md, latent_hold 15): sampled jitter 1.2-19x
+    # Tried on the phase config (run P9 in docs/experiments.md, latent_hold 15): sampled jitter 1.2-19x
     # the real clips' on the validation seeds (walks 4.5x instead of 8x), still above 3x on most,
     # and the mean output's run and dash slowed to a quarter of their pace. Off by default.
     latent_hold: int = 1
@@ -98,18 +98,18 @@ class CCNetConfig:
     # last). Every z is still N(0, I) on its own. Why it was tried: on real clips the posterior
     # means of ccnet_phase's per-frame z are correlated from frame to frame (lag one 0.3-0.99 on
     # the validation seeds), unlike its N(0, I) prior's independent draws (sampled jitter 2.7-28x).
-    # It did not help (runs A95, A98 in models/README.md: 2.1-29x and 1.5-21x): z still carried
+    # It did not help (runs A95, A98 in docs/experiments.md: 2.1-29x and 1.5-21x): z still carried
     # each frame's residual, in steps the decoder scaled back up. 0: independent draws.
     latent_ar: float = 0.0
     # phase: the last two channels of c^d are a local motion phase (sin, cos)
     # (:mod:`mocapviz.features.phase`), given as an input and predicted with c^d; generation turns
-    # it on at the seed's pace, or feeds the predicted one back (Generator's phase_source; issue 9).
+    # it on at the seed's pace, or feeds the predicted one back (Generator's phase_source).
     # False: the paper's c^d.
     phase: bool = False
     # phase_harmonics K (needs phase): the decoder's weights and bias are a Fourier series in the
     # phase, W(p) = W_0 + sum_k W_k^c cos(k p) + W_k^s sin(k p), k <= K (a phase-functioned
     # decoder, after Holden et al. 2017's PFNN, whose weights are a spline in the phase). Why:
-    # given the phase only as an input, the trained network barely used it (issue 9: with the
+    # given the phase only as an input, the trained network barely used it (measured: with the
     # phase kept turning, the held-out subject's seeds still moved at 1-3 % of the real activity);
     # with phase-dependent weights even a stalled causal stack decodes a cycle of poses.
     phase_harmonics: int = 0
@@ -120,7 +120,7 @@ class CCNetConfig:
     # Bandai's one body, and ccnet_phase_lerp (absolute height) learnt Bandai's root height, not the
     # body's: teacher-forced on CMU 35_01 (a training clip, root at 1.02 m) it predicted 0.80 m with
     # sigma 0.17 m, and generated bodies other than Bandai's dropped 0.1-0.2 m on the first frame and
-    # walked on bent knees (issue 9). Tried alone (run H1, config phase_lerp_anchor, models/README.md)
+    # walked on bent knees. Tried alone (run H1, config phase_lerp_anchor, docs/experiments.md)
     # it did not help: teacher-forced CMU 35_01 0.89 m, the CMU file seeds slower (activity 0.36-0.48x).
     # (): the absolute height (the paper's; older checkpoints).
     height_anchor: tuple[float, ...] = ()

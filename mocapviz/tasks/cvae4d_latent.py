@@ -7,7 +7,7 @@
 - :func:`type_medoid`: a representative cycle of a motion type (closest to its type's mean mu),
   the start or target of an interpolation;
 - :func:`interpolate`: (z, beta) moved linearly from one cycle to another and decoded;
-- :func:`cycle_measurements`: what issue 13 reads along such a path, from chi alone:
+- :func:`cycle_measurements`: what notebook 13 reads along such a path, from chi alone:
   the decoded duration (Phi: run <-> walk), the root displacement over the cycle in the ground
   plane (Gamma: walk-back <-> walk-forward; ``forward_m`` is signed, +Z is the first heading
   after canonicalisation, so walking back is negative) and the root's heading change over the

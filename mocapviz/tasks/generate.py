@@ -107,12 +107,12 @@ class Generator:
         # paper's). Every frame's draw is still N(0, 1), so every frame is still a sample of its
         # predicted PDF; only the joint over time changes. Why: the PDF is of the next frame given
         # the past, and independent draws make every frame jump by sigma, while a model's errors
-        # are slow drifts, not white noise (issue 9: jitter 25-909x the real clips' with 0).
+        # are slow drifts, not white noise (measured: jitter 25-909x the real clips' with 0).
         self.noise_correlation = float(noise_correlation)
         # a phase model's phase after the seed (CCNetConfig.phase): "seed_pace" turns it on at the
         # seed's own pace (features.phase.phase_pace), "network" feeds back the network's
         # prediction. Why "seed_pace": the predicted phase stalled with the pose on the held-out
-        # subject's seeds (issue 9: 0.00 cycles/s after 10 s), and a stalled phase cannot help.
+        # subject's seeds (measured: 0.00 cycles/s after 10 s), and a stalled phase cannot help.
         if phase_source not in ("seed_pace", "network"):
             raise ValueError(f"phase_source must be 'seed_pace' or 'network', got {phase_source!r}")
         self.phase_source = phase_source
@@ -120,7 +120,7 @@ class Generator:
         # "seed", rescaled every frame to the speed of the c^d the last seed frame was fed (at_speed:
         # the paper's interactive velocity control, §4.4, with the user's speed the seed's), until
         # the character's motion type changes (a run after a walk has its own pace). Why: fed
-        # back, the predicted plan slows (issue 9: ccnet_phase_lerp's test run seed at 0.27x the real
+        # back, the predicted plan slows (measured: ccnet_phase_lerp's test run seed at 0.27x the real
         # runs' ground speed over seconds 30-60; held, 0.84x)
         if pace not in PACES:
             raise ValueError(f"pace must be one of {PACES}, got {pace!r}")
@@ -137,7 +137,7 @@ class Generator:
         self.latent = self.cfg.latent  # a CCNet with a latent z (CCNetConfig.latent; baselines: 0)
         # z from the model's prior given the motion type (mocapviz.models.type_prior), when it has one
         # and ``type_prior``; else from its training prior. Why: N(0, I)'s mean z = 0 decodes an
-        # average of all types (issue 9: the waving stepped its feet in place)
+        # average of all types (measured: the waving stepped its feet in place)
         self.type_prior = getattr(model, "type_prior", None) if type_prior and self.latent else None
         self._type_index = None
         if self.backend == "numpy":

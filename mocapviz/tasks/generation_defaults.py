@@ -4,16 +4,16 @@ own defaults are the model's plain output: its own plan (pace "network") and tem
 
 # trained on every body at many sizes, with the root decoded from the past alone (root_without_z):
 # chosen over ccnet_phase_lerp_scale on the validation seeds, whose standing types it pushed
-# 0.25-0.30 m/s forward (models/README.md, "Why the waving walked off", says what each costs)
+# 0.25-0.30 m/s forward (docs/experiments.md, "Why the waving walked off", says what each costs)
 GENERATION_MODEL = "ccnet_phase_lerp_scale_root"
 
 # "seed": without a path, hold the speed of the plan (c^d) at the seed's end. With the network's own
 # plan fed back frame by frame, ccnet_phase_lerp's Bandai run test seed slowed to 0.27x the real
-# runs' ground speed over seconds 30-60; held, 0.84x (issue 9)
+# runs' ground speed over seconds 30-60; held, 0.84x (docs/experiments.md)
 PACE = "seed"
 PACES = ("seed", "network")  # what Generator(pace=...) and --pace accept
 
 # Sampling spread: chosen on the 9 validation seeds (pace "seed"), where the sampled waving shakes at
 # 1 and 0.7 (jitter 4.7x and 3.2x the real clips' with ccnet_phase_lerp, 4.9x and 3.5x with
-# ccnet_phase_lerp_scale: over the issue's bar of 3) and not at 0.5 (2.3x, 2.7x)
+# ccnet_phase_lerp_scale: over the moving bar's 3) and not at 0.5 (2.3x, 2.7x)
 SAMPLING_TEMPERATURE = 0.5

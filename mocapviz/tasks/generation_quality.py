@@ -28,7 +28,7 @@ QUALITY_KEYS = ("freezing_share", "activity_ratio", "jitter_ratio", "pose_distan
                 "root_height_ratio")
 
 
-# The seeds of issue 9's "Done when": locomotion and repeatable motion, where a real performer
+# The seeds of the moving bar: locomotion and repeatable motion, where a real performer
 # keeps moving for a minute (a one-off action such as lying down ends in a still pose, so
 # freezing after it is no failure). (motion type, regular expression the clip's description must
 # match in full, or None for any).
@@ -93,7 +93,7 @@ ROOT_SPEED_TOLERANCE = 0.1
 
 
 def within_issue_bar(clip: dict) -> bool:
-    """Issue 9's "Done when" for one seed (a ``per_clip`` entry of :func:`generation_quality`):
+    """The moving bar for one seed (a ``per_clip`` entry of :func:`generation_quality`):
     never frozen, activity 0.5-2x and jitter at most 3x the real clips'."""
     return bool(clip["freezing_share"] == 0 and 0.5 <= clip["activity_ratio"] <= 2 and clip["jitter_ratio"] <= 3)
 
@@ -122,7 +122,7 @@ class TypeBanks(dict):
 
     Why per type: against every training pose, a jog seed that folds into a body with its legs
     stretched out scored 2.4x the held-out real jogs' distance (every source holds some lying,
-    kneeling or kicking pose near it); against the jog poses, 3.3x (issue 9: the held-out
+    kneeling or kicking pose near it); against the jog poses, 3.3x (measured: the held-out
     subject's jog from the phase model without a latent)."""
 
     def __init__(self, ds):
