@@ -116,6 +116,17 @@ def test_following_distance_of_a_sideways_walker_grows_as_hand_computed():
     assert list(table.columns[:4]) == ["model", "mean_cm", "std_cm", "n"]
     assert table.n[0] == 2 and table.mean_cm[0] == pytest.approx(expected, rel=1e-3)
     assert res.covered.max() < 0.05    # it never moves along the path: only the first 0.5 m is near it
+    # the timed distance sees that it never went along: at frame k the target is the path's arc
+    # length s_k ahead and the walker k v / fps to the side, so the distance is sqrt(s_k^2 + side^2)
+    arc = np.concatenate([np.zeros((2, 1)), np.cumsum(np.linalg.norm(np.diff(res.frame_target, axis=1), axis=-1), 1)], 1)
+    s_k = arc + np.linalg.norm(res.frame_target[:, :1] - res.target[:, :1], axis=-1)
+    side = v / fps * np.arange(1, n + 1)
+    np.testing.assert_allclose(res.timed_cm, 100 * np.sqrt(s_k ** 2 + side ** 2).mean(axis=1), rtol=1e-3)
+    # standing still: close to the curve (a small mean_cm), but it covers nothing and is far behind
+    still = table.set_index("model").loc["stand_still"]
+    assert still.mean_cm < 5.0 and still.covered < 0.05
+    assert still.timed_cm == pytest.approx(100 * arc.mean(), rel=1e-3)
+    assert still.timed_cm > 10 * still.mean_cm
 
 
 def test_kept_frames_pose_the_generated_body_on_the_achieved_path():

@@ -11,8 +11,11 @@ c^t follows the segments (a 20-frame linear blend at each change, as the keyboar
 Trajectory distance (§4.3.2): per generated frame, the closest distance of the root's ground
 projection to the target polyline, averaged over the frames of one generation; the table gives
 mean ± std of that average over every (seed, path) in cm. A character that stays at the start
-is close to the curve too, so the table adds ``covered``: the share of the target's points that
-the root passed within 0.5 m of.
+is close to the curve too (the path starts where the seed ends), so the table adds two measures
+that standing still cannot pass: ``timed_cm``, the distance to the target point of the same
+frame (where the character should be by now, at its segment's speed), and ``covered``, the
+share of the target's points that the root passed within 0.5 m of; and a ``stand_still`` row
+(the root kept where the seed ends) that shows what doing nothing scores on each.
 """
 
 from __future__ import annotations
@@ -150,6 +153,8 @@ class Following:
     distance_cm: np.ndarray   # (B,) mean over frames of the closest distance, cm
     covered: np.ndarray       # (B,) share of the target within COVER_RADIUS of the achieved path:
                               # standing still at the start scores a small distance, and this says so
+    timed_cm: np.ndarray      # (B,) mean distance to the target point of the same frame, cm
+    frame_target: np.ndarray  # (B, N, 2) the target point of each generated frame
     types: list[str]
     start_root: np.ndarray    # (B, 3) root of the frame before each seed, as the clip's
     start_heading: np.ndarray  # (B,) its heading
@@ -196,24 +201,41 @@ def follow(model, normaliser, ds, rows: list[int], name: str, speeds: dict[str, 
     out = gen.run(seed_x, np.stack([a["skel"] for a in arrs]), np.stack(labels), n - 1,
                   path=np.stack(paths), seed_traj=np.stack([a["traj"][:n_seed] for a in arrs]),
                   start_root=np.stack(starts), start_heading=np.asarray(headings), progress=progress)
-    achieved, dist, covered = [], [], []
+    achieved, dist, covered, timed = [], [], [], []
     for i in range(len(rows)):
         root, _ = integrate_root(out.x[i][:, root_b], starts[i], headings[i])
         g = root[n_seed:, [0, 2]]
         achieved.append(g)
         dist.append(100.0 * polyline_distance(g, targets[i]).mean())
         covered.append(coverage(targets[i], g))
+        timed.append(100.0 * np.linalg.norm(g - paths[i][n_seed:], axis=-1).mean())
     return Following(model_name, name, list(rows), np.stack(targets), np.stack(achieved), np.asarray(dist),
-                     np.asarray(covered), types, np.stack(starts), np.asarray(headings), out if keep else None)
+                     np.asarray(covered), np.asarray(timed), np.stack([p[n_seed:] for p in paths]), types,
+                     np.stack(starts), np.asarray(headings), out if keep else None)
+
+
+def standing_still(r: Following) -> Following:
+    """What the trajectory measures give a character that stays where its seed ends."""
+    still = np.repeat(r.frame_target[:, :1], r.frame_target.shape[1], axis=1)
+    dist = np.array([100.0 * polyline_distance(s, t).mean() for s, t in zip(still, r.target)])
+    covered = np.array([coverage(t, s) for s, t in zip(still, r.target)])
+    timed = 100.0 * np.linalg.norm(still - r.frame_target, axis=-1).mean(axis=1)
+    return Following("stand_still", r.trajectory, r.rows, r.target, still, dist, covered, timed, r.frame_target,
+                     r.types, r.start_root, r.start_heading)
 
 
 def following_table(results: list[Following]) -> pd.DataFrame:
-    """Rows (model, mean_cm, std_cm, n, covered): the distances of every (seed, trajectory) of
-    each model (std with ddof 0) and the mean share of the target covered (:func:`coverage`)."""
+    """Rows (model, mean_cm, std_cm, n, covered, timed_cm, timed_std_cm): the distances of every
+    (seed, trajectory) of each model (std with ddof 0), the mean share of the target covered
+    (:func:`coverage`) and the distance to the target point of the same frame; plus the row
+    ``stand_still`` (:func:`standing_still`) over the first model's seeds and paths."""
+    first = results[0].model if results else None
+    results = list(results) + [standing_still(r) for r in results if r.model == first]
     rows = []
     for model in dict.fromkeys(r.model for r in results):
-        d = np.concatenate([r.distance_cm for r in results if r.model == model])
-        covered = np.concatenate([r.covered for r in results if r.model == model])
+        pick = [r for r in results if r.model == model]
+        d, timed = (np.concatenate([getattr(r, k) for r in pick]) for k in ("distance_cm", "timed_cm"))
+        covered = np.concatenate([r.covered for r in pick])
         rows.append(dict(model=model, mean_cm=float(d.mean()), std_cm=float(d.std()), n=int(len(d)),
-                         covered=float(covered.mean())))
+                         covered=float(covered.mean()), timed_cm=float(timed.mean()), timed_std_cm=float(timed.std())))
     return pd.DataFrame(rows)
