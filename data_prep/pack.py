@@ -86,6 +86,7 @@ def pack(ds, root: Path, out_dir: Path, chunks: int = 2, progress: bool = True) 
                   meta=np.frombuffer(json.dumps(dict(ds.meta, config=json.loads(ds.config.key()))).encode(),
                                      np.uint8))
     arrays.update({f"norm_{k}": v for k, v in ds.normaliser.state_dict().items()})
+    (out_dir / "unpacked.npz").unlink(missing_ok=True)   # a cache of the previous copy
     written = [out_dir / "ccnet.npz"]
     np.savez(written[0], **arrays)
     for k, part in enumerate(np.array_split(np.arange(len(motions)), chunks)):
@@ -110,14 +111,18 @@ def _clip_features(args):
     return f.x, f.traj
 
 
-def unpack(folder: Path, workers: int = 8, tolerance: float = 0.02):
+def unpack(folder: Path, workers: int = 8, tolerance: float = 0.02, cache: bool = False):
     """The :class:`mocapviz.datasets.ccnet.CCNetDataset` of a folder written by :func:`pack`.
     Raises if a rebuilt clip's fingerprint differs from the original's by more than
-    ``tolerance`` training standard deviations; prints the largest difference."""
+    ``tolerance`` training standard deviations; prints the largest difference. With ``cache``
+    the rebuilt dataset is saved as ``folder/unpacked.npz`` and later calls load that (runs
+    side by side on one machine then rebuild it once)."""
     from mocapviz.datasets.ccnet import CCNetDataset, DatasetConfig
     from mocapviz.features.ccnet import Normaliser
 
     t0, folder = time.perf_counter(), Path(folder)
+    if (folder / "unpacked.npz").is_file():
+        return CCNetDataset.load(folder / "unpacked.npz")
     with np.load(folder / "ccnet.npz") as z:
         a = {k: z[k] for k in z.files}
     meta = json.loads(a["meta"].tobytes().decode())
@@ -148,6 +153,8 @@ def unpack(folder: Path, workers: int = 8, tolerance: float = 0.02):
           f"fingerprint difference {worst:.2e} training std", flush=True)
     if worst > tolerance:
         raise ValueError(f"{folder}: rebuilt features differ from the original by {worst:.3g} std (> {tolerance})")
+    if cache:
+        ds.save(folder / "unpacked.npz")
     return ds
 
 

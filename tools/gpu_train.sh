@@ -27,6 +27,8 @@ fi
 command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,memory.total,clocks.sm --format=csv,noheader
 mkdir -p "$RUNS" "$OUT"
 t0=$(date +%s)
+# once, for every run: the features rebuilt and checked, saved as cache/pack/unpacked.npz
+python3 -c "from data_prep.pack import unpack; unpack('cache/pack', workers=$(nproc), cache=True)" || exit 1
 for cfg in $CONFIGS; do
     python3 -m data_prep train --config "$cfg" --packed cache/pack --out "$RUNS/$cfg" --minutes "$MIN" \
         --no-resume "${EXTRA[@]}" > "$RUNS/$cfg.log" 2>&1 &
@@ -36,9 +38,11 @@ echo "training: $(( $(date +%s) - t0 )) s"
 models=()
 for cfg in $CONFIGS; do
     tail -c 600 "$RUNS/$cfg.log" | tr '\r' '\n' | tail -4
-    if [ -f "$RUNS/$cfg/best.safetensors" ]; then
+    if [ -f "$RUNS/$cfg/best.safetensors" ] && [ -f "$RUNS/$cfg/checkpoint.safetensors" ]; then
         models+=(--model "$RUNS/$cfg/best.safetensors")
-        python3 -c "from mocapviz.training.checkpoint import split_checkpoint as s; s('$RUNS/$cfg/best.safetensors', '$OUT/$cfg.safetensors', 15 * 2**20)"
+        # float16 (18 MB for the paper's width), in files under 16 MiB: every model comes back
+        python3 -c "from mocapviz.training.runs import export_model as e; e('$RUNS/$cfg', '$RUNS/$cfg/half.safetensors', half=True)"
+        python3 -c "from mocapviz.training.checkpoint import split_checkpoint as s; s('$RUNS/$cfg/half.safetensors', '$OUT/$cfg.safetensors', 15 * 2**20)"
     fi
 done
 [ ${#models[@]} -gt 0 ] && python3 -m data_prep one-step --packed cache/pack "${models[@]}" --csv "$RUNS/one_step.csv"

@@ -1,4 +1,4 @@
-"""One-step prediction, teacher-forced, against the trivial predictors (issue 9's diagnosis).
+"""One-step prediction, teacher-forced, against the trivial predictors (the diagnosis of docs/experiments.md).
 
 A network that generates by feeding its own output back must first predict the next frame
 from true past frames better than doing nothing does. :func:`one_step_table` measures, per block
@@ -84,7 +84,7 @@ def root_bias_table(model, norm, ds, rows) -> pd.DataFrame:
     Why: a bias here is a steady push that generation integrates. A latent model whose mean
     output decodes z = 0 where its clips' posteriors sit elsewhere predicted the standing types
     (waving, gestures) 0.25-0.30 m/s forward from their own true past, and generated wavings
-    walked off at that speed whatever plan c^d they were given (issue 9)."""
+    walked off at that speed whatever plan c^d they were given."""
     root = ds.layout.x_blocks["root"]
     err, speed = {}, {}
     for r in rows:

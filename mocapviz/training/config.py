@@ -110,7 +110,7 @@ TRAIN_CONFIGS = {
     "quick": TrainConfig(size="quick", steps=1200, batch_size=16, lr=1e-3, lr_final=1e-5, optimizer="adam",
                          eval_every=200, checkpoint_every=200),
     "default": TrainConfig(size="default", steps=3000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam"),
-    # issue 9's longer runs (about an hour each on one shared core): the default network for
+    # the generation experiments' longer runs (about an hour each on one shared core): the default network for
     # 5000 steps, and one twice as wide (C = 96, skip 128) for 2800, both trained on their own
     # predictions for the second half of each window (feedback_passes = 4)
     "long": TrainConfig(size="default", steps=5000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
@@ -118,9 +118,9 @@ TRAIN_CONFIGS = {
     "wide": TrainConfig(size="wide", steps=2800, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
                         feedback_passes=4),
     # the paper's width (C = skip = 256, 9.2 M parameters) on the default schedule, without
-    # feedback: issue 9's width run (about 1 h for 1000 steps on one shared core)
+    # feedback: the width run of the generation experiments (about 1 h for 1000 steps on one shared core)
     "paper_width": TrainConfig(size="paper", steps=2000, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam"),
-    # issue 9's rollout run: the mean adds x_t on the pose blocks (residual) and every 120-frame
+    # the rollout run (docs/experiments.md): the mean adds x_t on the pose blocks (residual) and every 120-frame
     # window runs free from frame 48 on (rollout_from), so the network trains on its own drift;
     # beta-NLL 1, no dropout, little noise. It did not help: at step 1000 no test seed moves like
     # the real clips (poses 6-24x the real pose distance), its teacher-forced rotation error is 3x
@@ -131,13 +131,13 @@ TRAIN_CONFIGS = {
     "rollout": TrainConfig(size="default", steps=2500, batch_size=32, window=120, lr=1e-3, lr_final=1e-5,
                            optimizer="adam", dropout=0.0, noise_std=0.01, nll_beta=1.0,
                            residual_blocks=("rot", "angvel", "pos", "vel"), rollout_from=48),
-    # issue 9's latent run: "wide" plus a per-frame latent z (32, learned prior: CCNetConfig.latent)
+    # the latent run (docs/experiments.md): "wide" plus a per-frame latent z (32, learned prior: CCNetConfig.latent)
     # and windows drawn with weight 1 / sqrt(windows of their motion type) (type_balance 0.5). It
     # did not beat "wide": 3 of 10 test seeds move like the real clips with the mean output (run,
     # walk-back, dash; both walks freeze), 1 of 10 sampled (noise_correlation 0.95). 70 min.
     "wide_latent": TrainConfig(size="wide", steps=2800, batch_size=32, lr=1e-3, lr_final=1e-5, optimizer="adam",
                                feedback_passes=4, latent=32, learned_prior=True, type_balance=0.5),
-    # issue 9's phase run: "default" plus a local motion phase in c^d (features.phase), a
+    # the phase run (docs/experiments.md): "default" plus a local motion phase in c^d (features.phase), a
     # phase-functioned decoder (2 harmonics) and a per-frame latent z (32, N(0, I) prior): the
     # first network whose mean output froze on none of the 10 test seeds (models/README.md,
     # ccnet_phase). 29 min on one shared core.
@@ -147,7 +147,7 @@ TRAIN_CONFIGS = {
     # that did not fix it (models/README.md, runs P6-P10): learned_prior, noise_std 0.01,
     # latent_hold 15 (sampled jitter 1.2-19x on the validation seeds, and the run slows to 0.27x),
     # latent_hold 30 with noise_std 0.01 (0.8-11x; the run 0.38x).
-    # issue 9's sampling run: "phase" with z blended linearly between knots 10 frames apart
+    # the sampling run (docs/experiments.md): "phase" with z blended linearly between knots 10 frames apart
     # (latent_hold 10, latent_lerp: a draw is no jump) and the predicted c^d decoded without z
     # (traj_without_z: the free-running plan comes from the past, so z = 0 plans no slower run).
     # Sampled jitter 0.37-2.6x the real clips' on 8 of the 9 validation seeds (the waving 5.0x),

@@ -42,8 +42,9 @@ def best_row(rows: list[dict]) -> dict | None:
     return min(ev, key=lambda r: float(r["val_nll"])) if ev else None
 
 
-def export_model(ckpt, dest) -> Path:
-    """Model-only copy of a checkpoint (no optimizer state), e.g. for the zoo.
+def export_model(ckpt, dest, half: bool = False) -> Path:
+    """Model-only copy of a checkpoint (no optimizer state), e.g. for the zoo; with ``half`` the
+    model's weights are stored as float16 (half the file; loading casts them back to float32).
 
     ``ckpt`` is a checkpoint file or a run folder; for a folder the best-by-validation model
     (``best.safetensors``) is exported, with its step and validation/test NLL in the metadata,
@@ -59,4 +60,7 @@ def export_model(ckpt, dest) -> Path:
             raise FileNotFoundError(f"{ckpt} is missing: the run has not been evaluated yet")
     model, norm, meta = load_checkpoint(ckpt)
     keep = {k: v for k, v in meta.items() if k != "optim_param_groups"}
+    if half:
+        model = model.half()
+        keep["weights"] = "float16"
     return save_checkpoint(dest, model, norm, dict(keep, **extra))

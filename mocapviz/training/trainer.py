@@ -124,7 +124,7 @@ def offset_noise(x: torch.Tensor, std: float, n_continuous: int) -> torch.Tensor
     generation is off by the same amount on every recent frame. With an offset on the inputs and
     clean targets the network is meant to learn to pull such a pose back (most random offsets
     leave the low-dimensional set of real poses, and the rotation, position and velocity blocks
-    then disagree). In issue 9 it did not: a residual network trained with offsets up to 0.3 std
+    then disagree). In the generation experiments (docs/experiments.md) it did not: a residual network trained with offsets up to 0.3 std
     still drifted by metres within 60 s.
     """
     b = x.shape[0]
