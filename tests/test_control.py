@@ -18,7 +18,9 @@ from mocapviz.tasks.control import (
 
 WALK, JOG = MOTION_TYPES.index("walk"), MOTION_TYPES.index("jog")
 N_TYPES = len(MOTION_TYPES)
-CONTROL_MODEL = "ccnet_default"   # the committed model on dataset v4's 21 types
+# every committed CCNet that control must drive: the paper's architecture on dataset v4's 21
+# types, and the generate command's model (a phase, a latent z with a type prior: its c^d is 14 wide)
+CONTROL_MODELS = ("ccnet_default", "ccnet_phase_lerp_scale_root")
 
 
 def test_number_key_blends_the_label_over_20_frames():
@@ -55,12 +57,12 @@ def test_steer_turn_offsets_and_speed_by_hand():
     assert np.allclose(steer(np.zeros(12), 0.0, 1.5, 1.0).reshape(6, 2)[:, 1], 1.5 * np.arange(1, 7) / 6)
 
 
-@pytest.fixture(scope="module")
-def committed():
+@pytest.fixture(scope="module", params=CONTROL_MODELS)
+def committed(request):
     from data_prep.sources import REPO_ROOT
     from mocapviz.training.checkpoint import load_checkpoint
     from mocapviz.zoo import find_checkpoint
-    return load_checkpoint(find_checkpoint(CONTROL_MODEL, cwd=REPO_ROOT))
+    return load_checkpoint(find_checkpoint(request.param, cwd=REPO_ROOT))
 
 
 @pytest.fixture(scope="module")

@@ -131,13 +131,22 @@ def paced_phase(seed_x: np.ndarray, layout: FeatureLayout, total: int, fps: floa
     the generated legs nearly still while the body glided on (measured: activity 0.16x the real runs')."""
     out = np.zeros((len(seed_x), total, 2), dtype=np.float32)
     for b, sx in enumerate(seed_x):
-        angle = local_phase(sx, layout, fps)
-        pace = phase_pace(angle)
-        if fallback_hz is not None and fallback_hz[b] > 0 and pace * fps / (2 * np.pi) <= BAND_HZ[0] + 1e-6:
-            pace = 2 * np.pi * float(fallback_hz[b]) / fps
+        angle, pace = seed_phase(sx, layout, fps, None if fallback_hz is None else fallback_hz[b])
         ahead = angle[-1] + pace * np.arange(1, total - len(sx) + 1)
         out[b] = phase_channels(np.concatenate([angle, ahead]))
     return out
+
+
+def seed_phase(seed_x: np.ndarray, layout: FeatureLayout, fps: float = FPS,
+               fallback_hz: float | None = None) -> tuple[np.ndarray, float]:
+    """The local phase angle (S,) of raw seed frames (S, n_x) and the pace (rad per frame) it
+    turns on at after them: :func:`phase_pace`, or ``fallback_hz`` where the seed shows no cycle
+    (see :func:`paced_phase`)."""
+    angle = local_phase(seed_x, layout, fps)
+    pace = phase_pace(angle)
+    if fallback_hz is not None and fallback_hz > 0 and pace * fps / (2 * np.pi) <= BAND_HZ[0] + 1e-6:
+        pace = 2 * np.pi * float(fallback_hz) / fps
+    return angle, pace
 
 
 def pace_hz(x: np.ndarray, layout: FeatureLayout, fps: float = FPS) -> float:

@@ -124,14 +124,34 @@ class ControlSession:
         self.frames = [normaliser.norm_x(np.asarray(f, np.float32)[None])[0] for f in seed_x]
         self.n_seed = len(seed_x)
         self.controls: list[np.ndarray] = []     # raw c^d fed for each generated frame
-        self.types = np.asarray(types, np.float32)
-        st = self.gen.stepper
-        st.reset()
-        st.set_static(self.skel_n, self.types[None])
+        self.gen.stepper.reset()
+        self.gen._z_past = []
+        self._set_types(np.asarray(types, np.float32))
+        # a phase model (CCNetConfig.phase) sees the seed's local phase, then the phase turning on
+        # at the seed's pace, as the Generator's default (features.phase.paced_phase)
+        self.phase = None
+        if model.cfg.phase:
+            from mocapviz.features.phase import seed_phase
+            usual = getattr(self.gen.type_prior, "phase_hz", None)
+            self.phase, self.pace = seed_phase(np.asarray(seed_x, np.float32), self.gen.layout,
+                                               fallback_hz=None if usual is None else usual[self.gen._type_index[0]])
         seed_n = normaliser.norm_traj(np.asarray(seed_traj, np.float32))
         for t in range(self.n_seed - 1):   # teacher-forced seed: frame t with the seed's c^d_{t+1}
-            raw = self.gen._step(self.frames[t][None], seed_n[t + 1][None], t)
+            raw = self.gen._step(self.frames[t][None], self._with_phase(seed_n[t + 1][None], t + 1), t)
         self.pred_traj = raw[:, self.gen.parts["traj_mean"]].copy()   # the model's next c^d, normalised
+
+    def _set_types(self, types: np.ndarray) -> None:
+        self.types = types
+        self.gen.stepper.set_static(self.skel_n, types[None])
+        self.gen._type_index = types[None].argmax(1)   # the type prior's
+
+    def _with_phase(self, c: np.ndarray, frame: int) -> np.ndarray:
+        """c^d (1, 12) of ``frame`` with a phase model's phase appended (1, 14)."""
+        if self.phase is None:
+            return c
+        from mocapviz.features.phase import phase_channels
+        angle = self.phase[frame] if frame < len(self.phase) else self.phase[-1] + self.pace * (frame - len(self.phase) + 1)
+        return np.concatenate([c, phase_channels(np.array([angle]))], axis=1).astype(np.float32)
 
     def predicted_traj(self) -> np.ndarray:
         """The model's own c^d for the next frame, raw (12,)."""
@@ -140,12 +160,13 @@ class ControlSession:
     def step(self, types=None, turn: float = 0.0, speed: float = np.nan) -> np.ndarray:
         """One frame under the given controls; returns it raw (n_x,)."""
         if types is not None and not np.array_equal(types, self.types):
-            self.types = np.asarray(types, np.float32)
-            self.gen.stepper.set_static(self.skel_n, self.types[None])
+            self._set_types(np.asarray(types, np.float32))
         c = steer(self.predicted_traj(), turn, speed, self.root_height)
         self.controls.append(c)
         nxt = np.zeros((1, len(self.frames[0])), np.float32)
-        raw = self.gen._step(self.frames[-1][None], self.norm.norm_traj(c)[None], len(self.frames) - 1)
+        t = len(self.frames) - 1
+        raw = self.gen._step(self.frames[-1][None], self._with_phase(self.norm.norm_traj(c)[None], t + 1), t)
+        self.gen.cfg.add_residual(raw[:, self.gen.parts["mean"]], self.frames[-1][None])   # a residual model's x_t
         self.pred_traj = self.gen._write_next(raw, nxt).copy()
         self.frames.append(nxt[0])
         return self.norm.denorm_x(nxt)[0]
