@@ -43,6 +43,17 @@ def mean_joint_error(a: np.ndarray, b: np.ndarray) -> float:
     return float(joint_position_errors(a, b).mean())
 
 
+def rel_p(pred: np.ndarray, true: np.ndarray) -> float:
+    """CCNet §4.6's relative prediction error: the mean over frames of |x̂_n - x_n| / |x_n|
+    (Euclidean norms of whole frame vectors ``pred`` and ``true`` (N, D), no IK). The vectors
+    are the motion representation itself (the continuous part of CCNet's x, raw units), not
+    joint positions. 0 for a perfect prediction; 1 for predicting zeros."""
+    pred, true = np.asarray(pred, dtype=np.float64), np.asarray(true, dtype=np.float64)
+    if pred.shape != true.shape or pred.ndim != 2:
+        raise ValueError(f"rel_p needs two (N, D) arrays of one shape, got {pred.shape} and {true.shape}")
+    return float((np.linalg.norm(pred - true, axis=1) / np.linalg.norm(true, axis=1)).mean())
+
+
 def foot_sliding(positions: np.ndarray, contacts: np.ndarray, fps: float, feet) -> float:
     """Mean horizontal speed (m/s) of the feet while they touch the ground.
 

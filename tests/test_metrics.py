@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mocapviz.metrics import foot_sliding, joint_position_errors, mean_joint_error
 
@@ -39,3 +40,14 @@ def test_foot_sliding_pools_feet_and_is_nan_without_contacts():
     # foot 0 pairs (0,1), (1,2): 2, 0; foot 1 pair (1,2): 6 -> mean of three = 8 / 3
     assert np.isclose(foot_sliding(pos, contacts, fps, [[0], [1]]), 8 / 3)
     assert np.isnan(foot_sliding(pos, np.zeros((3, 2), bool), fps, [[0], [1]]))
+
+
+def test_rel_p_by_hand():
+    from mocapviz.metrics import rel_p
+    true = np.array([[3.0, 4.0], [0.0, 2.0]])
+    pred = np.array([[3.0, 4.0], [0.0, 3.0]])           # frame errors 0 / 5 and 1 / 2
+    assert rel_p(pred, true) == pytest.approx(0.25)
+    assert rel_p(np.zeros_like(true), true) == pytest.approx(1.0)
+    assert rel_p(true, true) == 0.0
+    with pytest.raises(ValueError, match="one shape"):
+        rel_p(pred[:1], true)
