@@ -1,7 +1,8 @@
 """The ``mocapviz`` command (also ``python -m mocapviz``).
 
 ``mocapviz generate --seed walk.bvh --seconds 20 --out walk_more.bvh`` continues a user's own
-motion file with a trained model (:mod:`mocapviz.tasks.generate_bvh`). Mistakes in the
+motion file with a trained model (:mod:`mocapviz.tasks.generate_bvh`); ``mocapviz map walk.bvh``
+prints how that file's joints take the model's (:mod:`mocapviz.skeleton_map`). Mistakes in the
 request (a missing file, an unknown motion type, a seed too short, a skeleton that does not
 map) end with one line on stderr and exit status 2, not a traceback.
 """
@@ -32,7 +33,7 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--fps", type=float, default=120.0, help="frame rate of an .amc seed (default: %(default)s)")
     p.add_argument("--up", choices=("y", "z", "auto"), default="y", help="the seed's up axis (default: %(default)s)")
     p.add_argument("--joint-map", help="JSON object: seed joint name -> CCNet joint name (null to skip a joint), "
-                                       "over the automatic name map")
+                                       "over the automatic map (see `mocapviz map FILE`)")
     p.add_argument("--seed-seconds", type=float, default=2.0,
                    help="seconds of the seed fed to the model (default: %(default)s)")
     p.add_argument("--seconds", type=float, default=10.0, help="seconds to generate (default: %(default)s)")
@@ -92,10 +93,37 @@ def generate(args) -> None:
                + ("; skipped a leading T-pose frame of the seed" if seed.meta.get("tpose_frames") else ""))
 
 
+def _map_parser(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser("map", help="print how a file's joints map onto CCNet's 25 (what generate would use)",
+                       description="Print the mapping generate would use: file joint -> CCNet joint, the CCNet "
+                                   "joints made up, the file joints composed into a CCNet joint and those skipped.")
+    p.add_argument("file", help="a .bvh file, an .asf file, or an .amc file with --asf")
+    p.add_argument("--asf", help="the ASF skeleton of an .amc file")
+    p.add_argument("--up", choices=("y", "z", "auto"), default="y", help="the file's up axis (default: %(default)s)")
+    p.add_argument("--joint-map", help="JSON object: file joint name -> CCNet joint name (null to skip a joint), "
+                                       "over the automatic map")
+    p.set_defaults(run=show_map)
+    return p
+
+
+def show_map(args) -> None:
+    from mocapviz.io.asfamc import read_asf
+    from mocapviz.skeleton_map import map_skeleton
+    from mocapviz.tasks.generate_bvh import load_seed, read_json
+
+    path = Path(args.file)
+    if path.suffix.lower() == ".asf" and path.is_file():
+        skeleton = read_asf(path).to_skeleton()
+    else:
+        skeleton = load_seed(path, args.asf, up=args.up).skeleton
+    print(map_skeleton(skeleton, read_json(args.joint_map, "joint map"), source=str(path)).table())
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="mocapviz", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     _generate_parser(sub)
+    _map_parser(sub)
     args = parser.parse_args(argv)
     from mocapviz.tasks.generate_bvh import GenerateError
     try:

@@ -87,6 +87,25 @@ def _strip_namespace(name: str) -> str:
     return name.rsplit(":", 1)[-1]  # "mixamorig:Hips" -> "Hips"
 
 
+def read_explicit_map(explicit: dict | str | Path | None) -> dict:
+    """An explicit joint map (a dict, or a path to a JSON object) as a dict ({} for None),
+    its targets checked to be CCNet joints (or None, to skip a joint)."""
+    if isinstance(explicit, (str, Path)):
+        explicit = json.loads(Path(explicit).read_text())
+    explicit = dict(explicit or {})
+    bad = {k: v for k, v in explicit.items() if v is not None and v not in CCNET_25_JOINTS}
+    if bad:
+        raise SkeletonMapError(f"explicit map targets that are not CCNet joints: {bad}; "
+                               f"choose from {', '.join(CCNET_25_JOINTS)}")
+    return explicit
+
+
+def closest_convention(names) -> str:
+    """The key of :data:`NAME_CONVENTIONS` whose table holds the most of ``names``."""
+    bare = [_strip_namespace(n) for n in names]
+    return max(NAME_CONVENTIONS, key=lambda conv: sum(b in NAME_CONVENTIONS[conv] for b in bare))
+
+
 def map_to_ccnet25(names, explicit: dict | str | Path | None = None) -> dict[str, str]:
     """{file joint name: CCNet 25-joint name} for the joints of ``names`` that have one.
 
@@ -97,18 +116,9 @@ def map_to_ccnet25(names, explicit: dict | str | Path | None = None) -> dict[str
     CCNet names, or to null to skip a joint; it overrides the convention. Raises
     :class:`SkeletonMapError` naming every joint it could not place.
     """
-    if isinstance(explicit, (str, Path)):
-        explicit = json.loads(Path(explicit).read_text())
-    explicit = dict(explicit or {})
-    bad = {k: v for k, v in explicit.items() if v is not None and v not in CCNET_25_JOINTS}
-    if bad:
-        raise SkeletonMapError(f"explicit map targets that are not CCNet joints: {bad}; "
-                               f"choose from {', '.join(CCNET_25_JOINTS)}")
+    explicit = read_explicit_map(explicit)
     bare = {n: _strip_namespace(n) for n in names}
-
-    def placed(conv: str) -> int:
-        return sum(b in NAME_CONVENTIONS[conv] for b in bare.values())
-    conv = max(NAME_CONVENTIONS, key=placed)
+    conv = closest_convention(names)
     table, left_out = NAME_CONVENTIONS[conv], _LEFT_OUT[conv]
     out, unplaced = {}, []
     for name, b in bare.items():

@@ -1,7 +1,7 @@
 """The generate command: a user's own seed (real CMU, Bandai and HDM05 files) in, BVH out.
 
-Motion quality is not asserted here (the committed model freezes; issue 9 item 3): these tests
-pin the file handling, the skeleton round trip and the command's errors.
+Motion quality is not asserted here (the benchmarks measure it): these tests pin the file
+handling, the skeleton round trip and the command's errors.
 """
 
 from __future__ import annotations
@@ -181,19 +181,45 @@ def test_errors_are_one_clear_line(data_dir, tmp_path, capsys, monkeypatch, case
     assert not (tmp_path / "e.bvh").exists()
 
 
-def test_a_skeleton_that_does_not_map_names_its_joints_and_the_option(data_dir, tmp_path, capsys, monkeypatch):
+def test_joints_no_table_knows_are_placed_from_the_tree(data_dir, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
     text = (data_dir / CMU_WALK[0]).read_text().replace("JOINT LeftLeg", "JOINT Shin_Left")
     odd = tmp_path / "odd.bvh"
     odd.write_text(text)
     out = tmp_path / "o.bvh"
     code, err = run_cli(capsys, "--seed", str(odd), "--seconds", "1", "--out", str(out))
-    assert code == 2 and "Shin_Left" in err and "--joint-map FILE.json" in err and len(err.strip().splitlines()) == 1
-    jm = tmp_path / "map.json"
-    jm.write_text(json.dumps({"Shin_Left": "LeftLeg"}))
-    code, err = run_cli(capsys, "--seed", str(odd), "--seconds", "1", "--joint-map", str(jm), "--out", str(out))
     assert code == 0, err
     assert "Shin_Left" in read_bvh(out).skeleton.names
+    assert main(["map", str(odd)]) == 0
+    table = capsys.readouterr().out.splitlines()
+    assert table[0] == "mapping found by: the tree and the rest pose"
+    assert table[2 + 3].split() == ["Shin_Left", "LeftLeg"]  # the fourth CCNet joint
+
+
+def _left_leg_up(text: str) -> str:
+    """The CMU file's text with its left shin and foot pointing up and LeftLeg renamed, so
+    that no name table places it and the tree is not a humanoid's."""
+    for bone in ("2.53442 -6.96327", "2.71068 -7.44755"):
+        assert bone in text
+        text = text.replace(bone, bone.replace(" -", " "))
+    return text.replace("JOINT LeftLeg", "JOINT Shin_Left")
+
+
+def test_a_skeleton_that_does_not_map_says_what_it_found_and_the_option(data_dir, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    odd = tmp_path / "odd.bvh"
+    odd.write_text(_left_leg_up((data_dir / CMU_WALK[0]).read_text()))
+    out = tmp_path / "o.bvh"
+    code, err = run_cli(capsys, "--seed", str(odd), "--seconds", "1", "--out", str(out))
+    assert code == 2 and f"{odd}: not a humanoid skeleton" in err and "--joint-map FILE.json" in err
+    assert "do not hang below the hips 'Hips'" in err and "LeftToeBase" in err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()
+    jm = tmp_path / "map.json"
+    jm.write_text(json.dumps({"Shin_Left": "LeftLeg"}))  # the override places what the names do not
+    assert main(["map", str(odd), "--joint-map", str(jm)]) == 0
+    table = capsys.readouterr().out.splitlines()
+    assert table[0] == "mapping found by: joint names (cmu_motionbuilder convention), with the explicit map over it"
+    assert table[2 + 3].split() == ["Shin_Left", "LeftLeg"]
 
 
 def test_model_names_are_found_on_the_search_path(tmp_path, monkeypatch):

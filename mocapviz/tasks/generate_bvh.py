@@ -3,7 +3,8 @@
 The seed (BVH, or ASF/AMC) loses a leading inserted T-pose frame
 (:func:`mocapviz.io.tpose.leading_tpose_frames`), is resampled to the model's 60 fps and cut
 to ``seed_seconds``; its skeleton is mapped onto the model's joints
-(:func:`mocapviz.skeleton.map_to_ccnet25`, :class:`mocapviz.tasks.rig.ModelRig`) and aligned to
+(:func:`mocapviz.skeleton_map.map_skeleton`: by a naming convention's table, else from the tree
+and the rest pose; :class:`mocapviz.tasks.rig.ModelRig`) and aligned to
 the mean rest pose of the training skeletons; that rest pose with the file's own bone lengths
 gives c^s. :class:`mocapviz.tasks.generate.Generator`
 continues the seed; the generated frames go back onto the seed's skeleton (all its joints and
@@ -25,7 +26,8 @@ from mocapviz.io.asfamc import read_amc
 from mocapviz.io.bvh import read_bvh
 from mocapviz.io.tpose import leading_tpose_frames
 from mocapviz.motion import Motion
-from mocapviz.skeleton import SkeletonMapError, map_to_ccnet25
+from mocapviz.skeleton import SkeletonMapError
+from mocapviz.skeleton_map import map_skeleton
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.generation_defaults import PACE, SAMPLING_TEMPERATURE
 from mocapviz.tasks.rig import ModelRig
@@ -155,7 +157,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     ``switch_every`` seconds; ``path_xz`` (N, 2): ground points in metres (world X, Z) relative
     to the seed's last root position, resampled to one per generated frame (default: the
     network's own trajectory); ``joint_map``: file joint -> CCNet joint (dict or JSON file),
-    over the automatic name map; ``skeleton_z``: how far (training standard deviations) c^s
+    over the automatic map (names, else the tree); ``skeleton_z``: how far (training standard deviations) c^s
     may lie from the training skeletons' mean (see :func:`limit_skeleton`); ``temperature``:
     with ``sample``, frames are drawn from N(mean, (temperature * sigma)^2) (a latent model
     draws z instead); ``noise_correlation``: the draws' correlation from frame to frame;
@@ -171,9 +173,10 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     fps, known = float(ds["fps"]), tuple(ds["motion_types"])
     need = model.cfg.receptive_field + 1  # frame vectors start at the second frame
     try:
-        names = map_to_ccnet25(seed.skeleton.names, joint_map)
+        names = map_skeleton(seed.skeleton, joint_map, source=seed.meta.get("source", "")).mapping
     except SkeletonMapError as e:
-        raise GenerateError(f"{e} (on the command line: --joint-map FILE.json)") from None
+        hint = "" if "--joint-map" in str(e) else " (on the command line: --joint-map FILE.json)"
+        raise GenerateError(f"{e}{hint}") from None
     seed60 = seed if abs(seed.fps - fps) < 1e-6 else seed.resample(fps)
     n_seed = min(seed60.n_frames, int(round(seed_seconds * fps)))
     if n_seed < need:
@@ -224,7 +227,7 @@ def seen_scale(root_height: float, normaliser, z: float) -> float:
     deviations of the training skeletons' mean (1 for a seed already within). Why not scale
     every seed to the mean: a model trained on one Bandai skeleton for 90 % of its frames reads
     c^s to the hundredth; scaled by 1.009 (c^s moved 1.4 standard deviations), a Bandai walk
-    seed walked at 3.2 m/s instead of 1.3 (issue 9, the phase model without a latent) and at
+    seed walked at 3.2 m/s instead of 1.3 (the phase model without a latent) and at
     1.36 m/s instead of 1.01 (ccnet_phase)."""
     mean, std = float(normaliser.skel_mean[0]), float(normaliser.skel_std[0])
     return float(np.clip(root_height, mean - z * std, mean + z * std) / root_height)
