@@ -7,7 +7,7 @@ export VTK_DEFAULT_OPENGL_WINDOW ?= vtkEGLRenderWindow
 export PYVISTA_OFF_SCREEN ?= true
 export MPLBACKEND ?= Agg
 
-.PHONY: setup demo lab test test-unit test-notebooks train bench clean
+.PHONY: setup demo book lab test test-unit test-notebooks train bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,11 @@ setup: $(VENV)/.installed
 demo: setup
 	$(PY) -m data_prep build
 	$(PY) tools/run_notebooks.py --all $(if $(FULL),--full,--quick)
+
+# The executed notebooks of `make demo` as a static site in build/book/html (docs/book.md); runs
+# no notebook, fails on a missing or failed one, a broken link or image. BOOK_ALLOW_MISSING=1: partial.
+book: setup
+	$(PY) tools/build_book.py
 
 # JupyterLab on the notebooks, with the project's kernel (the venv's python3, from setup).
 # Jupyter refuses to run as root (containers) unless told; LAB_ARGS passes more options.
