@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 from mocapviz.errors import MocapFormatError
@@ -35,7 +36,8 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--joint-map", help="JSON object: seed joint name -> CCNet joint name (null to skip a joint), "
                                        "over the automatic map (see `mocapviz map FILE`)")
     p.add_argument("--seed-seconds", type=float, default=2.0,
-                   help="seconds of the seed fed to the model (default: %(default)s)")
+                   help="seconds of the seed fed to the model; any length from one frame, with a warning under "
+                        "the model's receptive field (default: %(default)s)")
     p.add_argument("--seconds", type=float, default=10.0, help="seconds to generate (default: %(default)s)")
     p.add_argument("--type", action="append", dest="types", metavar="NAME",
                    help="motion type (repeat it with --switch-every; default: walk)")
@@ -72,18 +74,28 @@ def generate(args) -> None:
     from tqdm.auto import tqdm
 
     from mocapviz.io.bvh import write_bvh
-    from mocapviz.tasks.generate_bvh import generate_from_seed, load_seed, read_json
+    from mocapviz.tasks.generate_bvh import ShortSeedWarning, generate_from_seed, load_seed, read_json
     from mocapviz.training.checkpoint import load_checkpoint
     from mocapviz.zoo import find_checkpoint
 
     model, norm, meta = load_checkpoint(find_checkpoint(args.model))
     seed = load_seed(args.seed, args.asf, args.fps, args.up)
     joint_map, path = read_json(args.joint_map, "joint map"), read_json(args.path, "path file")
-    result = generate_from_seed(seed, model, norm, meta, types=args.types or ["walk"], seconds=args.seconds,
-                                switch_every=args.switch_every, path_xz=path, sample=args.sample, ik=args.ik,
-                                seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
-                                skeleton_z=args.skeleton_z, temperature=args.temperature,
-                                noise_correlation=args.noise_correlation, pace=args.pace, progress=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", ShortSeedWarning)
+        shown = warnings.showwarning
+
+        def show(message, category, *rest, **kw):  # a short seed: one line, before the progress bar
+            if issubclass(category, ShortSeedWarning):
+                print(f"mocapviz generate: warning: {message}", file=sys.stderr, flush=True)
+            else:
+                shown(message, category, *rest, **kw)
+        warnings.showwarning = show
+        result = generate_from_seed(seed, model, norm, meta, types=args.types or ["walk"], seconds=args.seconds,
+                                    switch_every=args.switch_every, path_xz=path, sample=args.sample, ik=args.ik,
+                                    seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
+                                    skeleton_z=args.skeleton_z, temperature=args.temperature,
+                                    noise_correlation=args.noise_correlation, pace=args.pace, progress=True)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_bvh(result.motion, out)

@@ -164,8 +164,7 @@ def test_a_path_file_steers_and_types_switch(data_dir, tmp_path, capsys):
 
 @pytest.mark.parametrize("case, args, message", [
     ("unknown type", ["--type", "moonwalk"], "unknown motion type 'moonwalk'; known: walk, jog, sneak"),
-    ("short seed", ["--seed-seconds", "0.5"], "the seed is too short: 30 frames at 60 fps (0.50 s), "
-                                              "the model needs at least 42"),
+    ("no seed frame", ["--seed-seconds", "0"], "--seed-seconds 0 keeps no frame of the seed"),
     ("missing seed", ["--seed", "no/such/walk.bvh"], "seed file not found: no/such/walk.bvh"),
     ("missing model", ["--model", "ccnet_nonesuch"], "no model named 'ccnet_nonesuch': looked for"),
     ("amc without asf", ["--seed", "HDM05"], "pass its skeleton with --asf"),

@@ -8,13 +8,15 @@ and the rest pose; :class:`mocapviz.tasks.rig.ModelRig`) and aligned to
 the mean rest pose of the training skeletons; that rest pose with the file's own bone lengths
 gives c^s. :class:`mocapviz.tasks.generate.Generator`
 continues the seed; the generated frames go back onto the seed's skeleton (all its joints and
-names) and follow the seed frames in the output.
+names) and follow the seed frames in the output. A seed may be as short as one frame (with a
+:class:`ShortSeedWarning` under the receptive field: the paper's zero padding before the seed).
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +40,11 @@ CENTIMETRE = 0.01
 
 class GenerateError(ValueError):
     """A request the command cannot carry out; the message says what to change."""
+
+
+class ShortSeedWarning(UserWarning):
+    """The seed is shorter than the model's receptive field + 1 frames: the first generated
+    frames are generated from less context (the causal network's zero padding before the seed)."""
 
 
 def _need_file(path, what: str) -> Path:
@@ -164,6 +171,10 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     ``pace``: without a path, "seed" holds the speed of the plan at the seed's end, "network"
     feeds the network's own plan as predicted (:class:`mocapviz.tasks.generate.Generator`).
 
+    Any seed of one frame or more: one shorter than the model's receptive field + 1 frames
+    warns (:class:`ShortSeedWarning`) and is fed as it is, the network seeing zeros before it
+    as the paper's causal CCNet does (:func:`seed_features` says what short seeds fall back on).
+
     The network sees the seed scaled into the training skeletons' root heights (:func:`seen_scale`;
     the output is scaled back) and its c^s limited to ``skeleton_z`` (:func:`limit_skeleton`): a
     model trained on ~20 VICON skeletons crouched to half height from a Bandai seed's own c^s
@@ -177,11 +188,18 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     except SkeletonMapError as e:
         hint = "" if "--joint-map" in str(e) else " (on the command line: --joint-map FILE.json)"
         raise GenerateError(f"{e}{hint}") from None
+    if seed.n_frames < 1:
+        raise GenerateError("the seed has no frames")
     seed60 = seed if abs(seed.fps - fps) < 1e-6 else seed.resample(fps)
     n_seed = min(seed60.n_frames, int(round(seed_seconds * fps)))
+    if n_seed < 1:
+        raise GenerateError(f"--seed-seconds {seed_seconds:g} keeps no frame of the seed: give at least "
+                            f"{1 / fps:.3f} s (one frame at {fps:g} fps)")
     if n_seed < need:
-        raise GenerateError(f"the seed is too short: {n_seed} frames at {fps:g} fps ({n_seed / fps:.2f} s), "
-                            f"the model needs at least {need} ({need / fps:.2f} s, its receptive field + 1)")
+        warnings.warn(ShortSeedWarning(
+            f"the seed is shorter than the model's receptive field: {n_seed} frame{'s' * (n_seed != 1)} at {fps:g} fps "
+            f"({n_seed / fps:.2f} s), the model looks back {need} ({need / fps:.2f} s, its receptive field + 1); "
+            f"the first frames are generated from less context"), stacklevel=2)
     seed60 = seed60[:n_seed]
     rig = seed_rig(seed60, names, ds, normaliser)
     seed_m = rig.to_model(seed60)
@@ -190,7 +208,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     # stays as it is), and c^s within skeleton_z standard deviations of their mean
     size = seen_scale(seed_m.skeleton.configuration()[0], normaliser, skeleton_z)
     seen = seed_m.scaled(size)
-    feats = motion_features(seen, fps)
+    feats, seen_root = seed_features(seen, fps)
     n_gen = int(round(seconds * fps))
     types_oh = type_schedule(list(types), known, len(feats.x), n_gen, switch_every, fps)
     theta = heading_angles(seen.positions(), seen.skeleton)
@@ -198,7 +216,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     path = None
     if path_xz is not None:
         ahead = path_points(path_xz, n_gen) * size + end_root[[0, 2]]
-        path = np.concatenate([seen.root_positions[1:, [0, 2]], ahead])[None]
+        path = np.concatenate([seen_root[:, [0, 2]], ahead])[None]
     gen = Generator(model, normaliser, sample=sample, seed=rng_seed, temperature=temperature,
                     noise_correlation=noise_correlation, pace=pace).run(
         feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
@@ -208,6 +226,38 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
                                       ik=ik, include_seed=False).scaled(1 / size))
     out = _concat(seed60, rig.from_model(gen_m))
     return SeedGeneration(out, n_seed, gen_m, rig)
+
+
+def seed_features(seen: Motion, fps: float):
+    """The frame vectors and controls of a seed (model joints, ``fps``) and the root positions
+    (n, 3) of the frames they describe: ``max(1, F - 1)`` frame vectors for F seed frames.
+
+    A frame vector holds velocities, so the first frame of a seed only starts the second's; a
+    seed of one or two frames gets its first frame held still before it (F = 1: one frame
+    vector, the pose at rest: no velocity, both feet down where they are lowest). Nothing
+    else is padded: before the seed the network's inputs are zero (the stepper's buffers start
+    at zero, the causal padding of the paper's CCNet), and a phase model's phase turns on at the
+    motion type's usual pace where the seed is too short to show a cycle
+    (:func:`mocapviz.features.phase.seed_phase`). A one-frame seed has no plan (c^d) at its
+    end for pace "seed" to hold: the network's own plan drives it from its first prediction."""
+    n = seen.n_frames
+    padded = seen if n >= 3 else _held_first(seen, 3 - n)
+    feats = motion_features(padded, fps)
+    keep = max(1, n - 1)
+    if keep < len(feats.x):
+        theta = heading_angles(padded.positions(), padded.skeleton)
+        first = len(padded.root_positions) - keep - 1  # the frame before the first kept vector
+        feats = replace(feats, x=feats.x[-keep:], traj=feats.traj[-keep:],
+                        start_root=padded.root_positions[first].copy(), start_heading=float(theta[first]))
+    return feats, padded.root_positions[-keep:]
+
+
+def _held_first(motion: Motion, k: int) -> Motion:
+    """``motion`` with its first frame repeated ``k`` more times before it."""
+    idx = np.concatenate([np.zeros(k, dtype=np.int64), np.arange(motion.n_frames)])
+    trans = {j: t[idx] for j, t in motion.translations.items()}
+    return replace(motion, rotations=motion.rotations[idx], root_positions=motion.root_positions[idx],
+                   translations=trans)
 
 
 def seed_controls(traj: np.ndarray) -> np.ndarray:
