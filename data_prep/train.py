@@ -32,6 +32,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "(lowest validation NLL over the evaluations, not the last step); its metadata records "
                    "the step it came from and its validation and test NLL")
     p.add_argument("--no-resume", action="store_true")
+    p.add_argument("--init", help="fine-tune this model (zoo name or .safetensors file): its network and "
+                   "normaliser, the config's schedule")
 
 
 def run(a: argparse.Namespace) -> int:
@@ -57,7 +59,11 @@ def run(a: argparse.Namespace) -> int:
     else:
         ds = build_dataset(DatasetConfig.quick() if a.dataset == "quick" else DatasetConfig(), a.data_dir,
                            progress=rank == 0)
-    ckpt = train(ds, cfg, a.out, resume=not a.no_resume)
+    init = None
+    if a.init:
+        from mocapviz.zoo import find_checkpoint
+        init = find_checkpoint(a.init)
+    ckpt = train(ds, cfg, a.out, resume=not a.no_resume, init=init)
     if rank == 0:
         _, _, meta = load_checkpoint(ckpt)
         rows = read_log(Path(a.out) / LOG)

@@ -249,3 +249,21 @@ def test_offset_noise_is_one_offset_per_window_on_the_continuous_channels():
     assert 0.0 < per_window.min() and per_window.max() < 0.3 * 1.8  # scale ~ U(0, 0.3) per window
     assert per_window.std() > 0.03                                  # ... and it varies across windows
     assert torch.equal(offset_noise(x, 0.0, 8), torch.zeros_like(x))
+
+
+def test_fine_tuning_starts_from_the_pretrained_network_and_its_normaliser(ds, tmp_path):
+    pre = train(ds, replace(TINY, steps=4, eval_every=4, checkpoint_every=4), tmp_path / "pre", progress=False)
+    pre_model, pre_norm, _ = load_checkpoint(pre)
+    # fine-tune on a dataset whose own normaliser differs, one step at a vanishing learning rate:
+    # the run must keep the pretrained units and start from the pretrained weights
+    other = replace(ds, normaliser=replace(ds.normaliser, x_mean=ds.normaliser.x_mean + 1.0))
+    still = replace(TINY, steps=1, eval_every=1, checkpoint_every=1, lr=1e-12, lr_final=1e-12, seed=5)
+    tuned = train(other, still, tmp_path / "tuned", progress=False, init=pre)
+    model, norm, meta = load_checkpoint(tuned)
+    np.testing.assert_array_equal(norm.x_mean, pre_norm.x_mean)
+    assert meta["init"] == str(pre) and model.cfg == pre_model.cfg
+    for (k, a), b in zip(model.state_dict().items(), pre_model.state_dict().values()):
+        torch.testing.assert_close(a, b, atol=1e-6, rtol=0, msg=k)
+    # without init the same run starts from fresh weights
+    fresh, _, _ = load_checkpoint(train(other, still, tmp_path / "fresh", progress=False))
+    assert not torch.allclose(fresh.encoder.weight, pre_model.encoder.weight)

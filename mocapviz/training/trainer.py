@@ -160,8 +160,12 @@ def evaluate(model, data: WindowData, pairs: np.ndarray, lambdas=LAMBDAS, batch:
 
 
 def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = True,
-          stop_after: int | None = None) -> Path:
+          stop_after: int | None = None, init=None) -> Path:
     """Train on ``ds`` into ``out_dir`` (``checkpoint.safetensors``, ``best.safetensors``, ``losses.csv``).
+
+    ``init``: a checkpoint to fine-tune (paper §4.6): its network (its own model config, whatever
+    ``cfg``'s size says) and its normaliser (the units the network reads) replace the fresh ones;
+    ``cfg`` gives the schedule. A run folder holding a checkpoint resumes from it, not from ``init``.
 
     With ``resume`` an existing checkpoint in ``out_dir`` is continued exactly. ``stop_after``
     ends the run early at that step (a checkpoint is written), as if interrupted.
@@ -177,6 +181,10 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         ds = replace(ds, normaliser=ds.normaliser.per_body(ds.skel[(ds.clips.split == "train").values]))
     if cfg.body_scale:  # c^s normalised over the scaled bodies training sees (the checkpoint keeps it)
         ds = replace(ds, normaliser=ds.normaliser.body_scaled(*cfg.body_scale))
+    pretrained = None
+    if init is not None:  # fine-tuning reads the new data in the pretrained network's units
+        pretrained = load_checkpoint(init)
+        ds = replace(ds, normaliser=pretrained[1])
     device = torch.device(cfg.device)
     if device.type == "cuda":  # TF32, not bf16: x_{t+1} differs from x_t by ~0.01 std, below bf16's step
         torch.backends.cuda.matmul.allow_tf32 = torch.backends.cudnn.allow_tf32 = True
@@ -187,7 +195,12 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         raise ValueError("the dataset has no validation windows (rebuild it: dataset version >= 2)")
     model_cls = model_class(cfg.model)
     torch.manual_seed(cfg.seed)
-    model = model_cls(cfg.model_config(data.layout, ds.normaliser)).to(device)
+    if pretrained is not None:
+        if pretrained[0].name != model_cls.name:
+            raise ValueError(f"{init} holds a {pretrained[0].name!r} model, the config trains {cfg.model!r}")
+        model = pretrained[0].train().to(device)
+    else:
+        model = model_cls(cfg.model_config(data.layout, ds.normaliser)).to(device)
     loss_fn = LOSSES[model.name]
     if cfg.rollout_from and not hasattr(model, "stepper"):
         raise ValueError(f"rollout_from needs a model with an incremental stepper (CCNet), not {cfg.model!r}")
@@ -213,6 +226,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     net = torch.nn.parallel.DistributedDataParallel(model, static_graph=True) if world > 1 else model
     per_rank = max(1, cfg.batch_size // world)
     meta = dict(train_config=cfg.to_json(), dataset=json.dumps(_dataset_meta(ds)))
+    if init is not None:
+        meta["init"] = str(init)
     end = cfg.steps if stop_after is None else min(cfg.steps, stop_after)
     t0 = time.perf_counter() - (float(rows[-1]["seconds"]) if rows else 0.0)
     bar = tqdm(range(start, 10 ** 9 if cfg.minutes else end), initial=start, total=cfg.steps, desc=f"train {cfg.model}-{cfg.size}",
