@@ -1,14 +1,22 @@
-"""``python -m data_prep apps-tables --model ccnet_wide [--quick]``: CCNet paper Table 1
-(denoising) and the trajectory-following distances of §4.3.2, for a CCNet named on the command
-line against the committed baselines, written to ``results/``.
+"""``python -m data_prep apps-tables [--model NAME ...] [--quick]``: CCNet paper Table 1
+(denoising), Fig. 4(c-d) completion on the held-out subject and the trajectory-following
+distances of §4.3.2, for the CCNets named on the command line (default: the next-frame model and
+the generate command's model) against the committed baselines and the predictors that do
+nothing, written to ``results/`` (each row carries the ``mode`` and ``command`` that made it).
 
 - ``results/ccnet_table1_denoising.csv`` (dataset, noise_std, model, mean, std, n):
   :mod:`mocapviz.tasks.denoising` on "D" (every test-split clip) and "S-CMU" (every CMU clip of
-  the dataset: see below), noise 0.03 / 0.05 / 0.1 in normalised units, CCNet, ERD-4LR,
-  DAE-LSTM, plus ``noisy_input`` (the error of the noisy frames themselves).
-- ``results/ccnet_trajectory_following.csv`` (model, mean_cm, std_cm, n, covered):
-  :mod:`mocapviz.tasks.trajectory_following` over the six paths and every locomotion test clip's
-  first 120 frames, CCNet, PFNN, ERD-4LR, mean output.
+  the dataset: see below), noise 0.03 / 0.05 / 0.1 in normalised units; the CCNets, ERD-4LR,
+  DAE-LSTM, copy-last, constant velocity and the causal smoother (:mod:`mocapviz.tasks.do_nothing`;
+  its window and degree chosen on the validation clips for each noise level), plus
+  ``noisy_input`` (the error of the noisy frames themselves, which see the frame they are scored on).
+- ``results/ccnet_completion_tr.csv`` (model, clips, frames, corrupted_cm, completed_cm): the
+  held-out subject's right leg zeroed on 30 % of the frames, before and after completion.
+- ``results/ccnet_table7_seed_length.csv`` (model, seed_frames, rel_p, n): Table 7, the one-step
+  prediction after seeds of 1-120 frames (:mod:`mocapviz.tasks.seed_length`) on the "D" clips.
+- ``results/ccnet_trajectory_following.csv`` (model, mean_cm, std_cm, n, covered, timed_cm,
+  timed_std_cm): :mod:`mocapviz.tasks.trajectory_following` over the six paths and every
+  locomotion test clip's first 120 frames; the CCNets, PFNN, ERD-4LR (mean output) and standing still.
 
 S-CMU. The paper trained its three models again on a selected CMU set (its supplementary, not
 available, says how). Our dataset holds 15 CMU clips of 14 subjects and none of them is in the
@@ -30,15 +38,18 @@ from pathlib import Path
 
 NOISE_STDS = (0.03, 0.05, 0.1)
 QUICK_SEEDS = 8
+# the next-frame CCNet (the tables' model) and the generate command's model
+DEFAULT_CCNETS = ("ccnet_next_frame_cpu", "ccnet_phase_lerp_scale_root")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--model", default="ccnet_wide", help="the CCNet: a name in models/zoo or a .safetensors file")
+    p.add_argument("--model", action="append", help="a CCNet: a name in models/zoo or a .safetensors file "
+                   f"(repeatable; default {', '.join(DEFAULT_CCNETS)}); the first sets the units")
     p.add_argument("--erd", default="erd_quick")
     p.add_argument("--dae", default="dae_lstm_quick")
     p.add_argument("--pfnn", default="pfnn_quick")
     p.add_argument("--quick", action="store_true", help="quick dataset, at most 8 trajectory seeds")
-    p.add_argument("--only", choices=("denoising", "trajectory"), help="one table only")
+    p.add_argument("--only", choices=("denoising", "completion", "seed-length", "trajectory"), help="one table only")
     p.add_argument("--out-dir", default=None, help="where the CSVs go (default results/)")
     p.add_argument("--data-dir")
 
@@ -98,6 +109,50 @@ def denoising_table(models: dict, ds, noise_stds=NOISE_STDS, seed: int = 0, prog
     return pd.concat(tables, ignore_index=True)
 
 
+def completion_table(models: dict, ds, share: float = 0.3, segment: int = 30, seed: int = 0):
+    """Fig. 4(c-d) on every test clip of the held-out subject (``ds.meta["test_subject"]``) long
+    enough for the dropped runs: the right leg's rotations zeroed on ``share`` of the frames, each
+    model's teacher-forced completion. Rows (model, clips, frames, corrupted_cm, completed_cm):
+    the leg's mean joint error on the dropped frames before and after; ``copy_last`` and
+    ``constant_velocity`` (:mod:`mocapviz.tasks.do_nothing`) complete it as well."""
+    import numpy as np
+    import pandas as pd
+
+    from mocapviz.tasks.denoising import Repairer, complete_leg
+    from mocapviz.tasks.do_nothing import ConstantVelocity, CopyLast
+
+    c = ds.clips
+    rows = np.flatnonzero(((c.split == "test") & (c.subject == ds.meta["test_subject"])
+                           & (c.stop - c.start > 4 * segment)).values)
+    ref = next(iter(models.values()))[1]
+    reps = {k: Repairer(m, n, reference=ref) for k, (m, n) in models.items()}
+    reps.update({b.name: b for b in (CopyLast(ref), ConstantVelocity(ref))})
+    out = []
+    for name, rep in reps.items():
+        before, after = [], []
+        for r in rows:
+            res = complete_leg(rep, ds.clip_arrays(int(r)), ds.skeleton(int(r)), share=share, segment=segment, seed=seed)
+            before.append(res["corrupted_error"][res["dropped"]])
+            after.append(res["completed_error"][res["dropped"]])
+        b, a = np.concatenate(before), np.concatenate(after)
+        out.append(dict(model=name, clips=len(rows), frames=len(b), corrupted_cm=float(b.mean()),
+                        completed_cm=float(a.mean())))
+    return pd.DataFrame(out)
+
+
+def seed_length_rows(models: dict, ds):
+    """Table 7 (:mod:`mocapviz.tasks.seed_length`) on the clips of "D", the models and the
+    predictors that do nothing."""
+    from mocapviz.tasks.denoising import Repairer
+    from mocapviz.tasks.do_nothing import ConstantVelocity, CopyLast
+    from mocapviz.tasks.seed_length import seed_length_table
+
+    ref = next(iter(models.values()))[1]
+    reps = {k: Repairer(m, n, reference=ref) for k, (m, n) in models.items()}
+    reps.update({b.name: b for b in (CopyLast(ref), ConstantVelocity(ref))})
+    return seed_length_table(reps, denoising_clips(ds)["D"])
+
+
 def thin(rows: list[int], n: int) -> list[int]:
     """At most ``n`` of ``rows``, evenly spread, first and last kept (quick mode's seeds)."""
     if len(rows) <= n:
@@ -129,16 +184,29 @@ def run(a: argparse.Namespace) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     mode = "quick" if a.quick else "full"
     t0 = time.perf_counter()
-    models = load_models({k: k for k in dict.fromkeys([a.model, a.erd, a.dae, a.pfnn])})
-    ds = dataset(a.quick, a.data_dir, models[a.model][0].cfg.n_types)
-    if a.only != "trajectory":
-        table = denoising_table({k: models[k] for k in (a.model, a.erd, a.dae)}, ds, progress=True)
-        table.to_csv(out_dir / "ccnet_table1_denoising.csv", index=False, float_format="%.4f")
-        print(f"denoising ({mode}, {time.perf_counter() - t0:.0f} s):\n{table.to_string(index=False)}")
-    if a.only != "denoising":
-        results = following_results({k: models[k] for k in (a.model, a.pfnn, a.erd)}, ds,
+    ccnets = a.model or list(DEFAULT_CCNETS)
+    models = load_models({k: k for k in dict.fromkeys([*ccnets, a.erd, a.dae, a.pfnn])})
+    n_types = {models[k][0].cfg.n_types for k in ccnets}
+    if len(n_types) > 1:
+        raise ValueError(f"the CCNets know different motion-type vocabularies ({sorted(n_types)}): compare them apart")
+    ds = dataset(a.quick, a.data_dir, n_types.pop())
+    command = f"python -m data_prep apps-tables {' '.join(f'--model {m}' for m in ccnets)}{' --quick' if a.quick else ''}"
+
+    def write(table, name, fmt):
+        # every results file says how it was made: mode and command as columns
+        table.assign(mode=mode, command=command).to_csv(out_dir / name, index=False, float_format=fmt)
+        print(f"{name} ({mode}, {time.perf_counter() - t0:.0f} s):\n{table.to_string(index=False)}")
+
+    if a.only in (None, "denoising"):
+        write(denoising_table({k: models[k] for k in (*ccnets, a.erd, a.dae)}, ds, progress=True),
+              "ccnet_table1_denoising.csv", "%.4f")
+    if a.only in (None, "completion"):
+        write(completion_table({k: models[k] for k in (*ccnets, a.erd, a.dae)}, ds), "ccnet_completion_tr.csv", "%.2f")
+    if a.only in (None, "seed-length"):
+        write(seed_length_rows({k: models[k] for k in (*ccnets, a.erd, a.dae)}, ds), "ccnet_table7_seed_length.csv",
+              "%.5f")
+    if a.only in (None, "trajectory"):
+        results = following_results({k: models[k] for k in (*ccnets, a.pfnn, a.erd)}, ds,
                                     QUICK_SEEDS if a.quick else None, progress=True)
-        table = following_table(results)
-        table.to_csv(out_dir / "ccnet_trajectory_following.csv", index=False, float_format="%.2f")
-        print(f"trajectory following ({mode}, {time.perf_counter() - t0:.0f} s):\n{table.to_string(index=False)}")
+        write(following_table(results), "ccnet_trajectory_following.csv", "%.2f")
     return 0

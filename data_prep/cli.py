@@ -86,6 +86,11 @@ def _one_step(args) -> int:
     return run(args)
 
 
+def _generation_table(args) -> int:
+    from data_prep.generation_table import run
+    return run(args)
+
+
 def _train_cvae(args) -> int:
     from data_prep.train_cvae import run
     return run(args)
@@ -157,6 +162,12 @@ def parser() -> argparse.ArgumentParser:
                          "beside copy-last and constant velocity (see data_prep/one_step_report.py)")
     add_one_step_arguments(os_)
     os_.set_defaults(func=_one_step)
+
+    from data_prep.generation_table import add_arguments as add_generation_arguments
+    gt = sub.add_parser("generation-table", help="long free-running generation of CCNet models measured on poses "
+                        "into results/ccnet_generation.csv (see data_prep/generation_table.py)")
+    add_generation_arguments(gt)
+    gt.set_defaults(func=_generation_table)
 
     from data_prep.train_cvae import add_arguments as add_cvae_arguments
     v = sub.add_parser("train-cvae", help="train the 4D motion CVAE (phases 1, 2, ablations) or write its "

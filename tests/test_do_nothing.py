@@ -81,3 +81,21 @@ def test_step_budget_turns_minutes_into_steps_once():
     assert b.steps(6) is None
     time.sleep(0.6)
     assert b.overrun(7, 100) == 8 and b.overrun(7, 8) is None
+
+
+def test_seed_length_table_by_hand():
+    from mocapviz.tasks.seed_length import predicted_frames, seed_length_table
+    t = np.arange(200.0)
+    x = np.stack([10 + t, np.full_like(t, 3.0), 20 - 0.05 * t, np.zeros_like(t), np.zeros_like(t)], 1)
+    clip = dict(x=x, traj=np.zeros((200, 12)), skel=None, type_index=0)
+    assert [p for _, p in predicted_frames([clip], 120, every=30)] == [120, 150, 180]
+    table = seed_length_table({"copy": dn.CopyLast(Ref()), "cv": dn.ConstantVelocity(Ref())}, [clip],
+                              lengths=(1, 2, 120), every=30).set_index(["model", "seed_frames"])
+    # copying the last frame errs by one frame's change whatever the seed: |(1, 0, -0.05)| / |x_p|
+    expected = np.mean([np.hypot(1, 0.05) / np.linalg.norm(x[p, :3]) for p in (120, 150, 180)])
+    for length in (1, 2, 120):
+        assert table.loc[("copy", length), "rel_p"] == pytest.approx(expected)
+    # constant velocity needs two frames: with one it copies, with two or more it is exact on a line
+    assert table.loc[("cv", 1), "rel_p"] == pytest.approx(expected)
+    assert table.loc[("cv", 2), "rel_p"] < 1e-6 and table.loc[("cv", 120), "rel_p"] < 1e-6
+    assert (table.n == 3).all()

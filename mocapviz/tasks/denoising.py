@@ -196,7 +196,7 @@ def complete_leg(repairer: Repairer, clip: dict, skeleton, share: float = 0.3, s
     ``truth``, ``corrupted`` and ``completed`` frames 1..T-1 (completed: the model's mean, the
     clean contact labels), the ``dropped`` mask of those frames, and the leg's joint error (cm)
     per frame of the corrupted input and of the completion against the truth."""
-    layout = FeatureLayout(skeleton.n_joints, repairer.n_types)
+    layout = FeatureLayout(skeleton.n_joints)   # x's blocks: the motion types do not matter
     x = np.asarray(clip["x"])
     mask = drop_segments(len(x), share, segment, np.random.default_rng(seed))
     corrupted = zero_rotations(x, leg_channels(layout, list(skeleton.names)), np.flatnonzero(mask))
