@@ -11,7 +11,15 @@ from mocapviz.heading import yaw_matrix
 from mocapviz.models.cvae4d import CVAE4D, CVAE4DConfig
 from mocapviz.rotations import matrix_to_sixd
 from mocapviz.tasks.cvae4d_latent import (
+    chance_agreement,
+    clustering_scores,
     cycle_measurements,
+    linear_path,
+    nearest_distance,
+    path_checks,
+    path_comparison,
+    pca_codes,
+    random_walk,
     interpolate,
     is_monotonic,
     latent_means,
@@ -100,3 +108,98 @@ def test_monotonic_and_smallest_step():
     s = smallest_step([0.5, 0.1, 0.3], [0.05, 0.2, 0.6, 0.1])
     assert s == dict(index=1, step_m=0.1, n_train_at_most=2, n_train=4, train_min_m=0.05)
     assert smallest_step([0.5, 0.3], [0.4, 0.6])["n_train_at_most"] == 0
+
+
+# ---------------------------------------------------------------------- checks that can fail
+def test_chance_agreement_is_the_sum_of_squared_shares():
+    assert chance_agreement(list("aabbbb")) == pytest.approx((1 / 3) ** 2 + (2 / 3) ** 2)
+    assert chance_agreement(["x"] * 4) == 1.0
+
+
+def _clustered(n_per=10, seed=0):
+    """chi (3 n_per, 4, 3) of three types, each a constant offset plus noise on the first number;
+    a 'latent' mu that scrambles the types (random), another that separates them."""
+    rng = np.random.default_rng(seed)
+    labels = np.repeat(["a", "b", "c"], n_per)
+    chi = rng.normal(0, 0.1, (3 * n_per, 4, 3))
+    chi[:, 0, 0] += np.repeat([0.0, 5.0, 10.0], n_per)
+    return chi, labels, rng
+
+
+def test_clustering_scores_compare_the_latent_with_raw_chi_and_pca():
+    chi, labels, rng = _clustered()
+    train = np.arange(0, 30, 2)
+    good = clustering_scores(chi[:, 0, :1] + 0.0, chi, labels, train)
+    assert good["raw_chi"] == good["pca"] == good["latent"] == 1.0 and good["pca_components"] == 1
+    bad = clustering_scores(rng.normal(size=(30, 2)), chi, labels, train)
+    assert bad["latent"] < 0.7 and bad["raw_chi"] == bad["pca"] == 1.0  # a latent worse than both fails
+    assert bad["chance"] == pytest.approx(1 / 3) and bad["pca_components"] == 2
+
+
+def test_pca_codes_fit_on_training_cycles_only():
+    chi, _, _ = _clustered()
+    train = np.arange(10)  # type a only: its spread is the noise, type b and c lie far off the fit
+    codes, pca = pca_codes(chi, train, 3)
+    assert codes.shape == (30, 3) and pca.n_components_ == 3
+    np.testing.assert_allclose(pca.mean_, chi[train].reshape(10, -1).mean(0))
+    assert pca_codes(chi, train[:3], 64)[1].n_components_ == 2  # at most n_train - 1 components
+
+
+def test_nearest_distance_linear_path_and_random_walk():
+    ref = np.zeros((2, 2, 2))
+    ref[1] += 1.0
+    np.testing.assert_allclose(nearest_distance(np.stack([np.full((2, 2), 0.25), np.full((2, 2), 0.75)]), ref), [0.25, 0.25])
+    path = linear_path(np.zeros(3), np.array([2.0, 4.0, 6.0]), 3)
+    np.testing.assert_allclose(path, [[0, 0, 0], [1, 2, 3], [2, 4, 6]])
+    walk = random_walk(np.zeros(4), np.full(4, 2.0), 5, seed=1)  # straight line 4 long, steps of 1
+    assert walk.shape == (5, 4) and np.all(walk[0] == 0)
+    np.testing.assert_allclose(np.linalg.norm(np.diff(walk, axis=0), axis=1), 1.0)
+    assert not np.allclose(walk[-1], 2.0)
+
+
+def _walk(forward_m, seconds=1.0, n_kept=1):
+    """chi (2, 6 n_kept + 4): the root moving ``forward_m`` along +Z in ``seconds``, no turn."""
+    chi = np.zeros((2, 6 * n_kept + 4))
+    chi[1, 6 * n_kept + 2] = forward_m
+    chi[1, -1] = seconds / PHI_SCALE
+    return chi
+
+
+def test_path_checks_raw_line_from_back_to_forward_passes_a_small_step():
+    """The line in raw chi from a walk back to a walk forward crosses a zero step: the
+    "smaller than any training step" check passes without any model."""
+    start, target = _walk(-1.0), _walk(1.0)
+    path = linear_path(start, target, 5)
+    train = np.stack([_walk(0.5), _walk(-0.8), _walk(1.2)])
+    m = cycle_measurements(path, 1, (1.0, 1.0, 1.0))
+    c = path_checks(m, cycle_measurements(train, 1, (1.0, 1.0, 1.0))["step_m"], path, train)
+    assert c["step_below_training"] and c["smallest_step_m"] == pytest.approx(0.0, abs=1e-9)
+    assert c["forward_monotonic"] and c["duration_monotonic"] and c["turn_monotonic"]
+    # inner cycles at -0.5, 0, 0.5 m: nearest training -0.8 (0.3 off), 0.5 (0.5), 0.5 (0); one number of 20 differs
+    assert c["nearest_train_rms"] == pytest.approx(np.mean([0.3, 0.5, 0.0]) / np.sqrt(20), rel=1e-6)
+
+
+class _Linear:
+    """A 'decoder' chi = [z as the forward displacement of a 1-joint cycle], beta ignored."""
+
+    @staticmethod
+    def decode(z, beta):
+        out = torch.zeros(len(z), 2, 10)
+        out[:, 1, 8] = z[:, 0]
+        out[:, 1, -1] = 1.0 / PHI_SCALE
+        return out
+
+
+def test_path_comparison_rows_and_a_baseline_that_fails():
+    chi = np.stack([_walk(-1.0), _walk(1.0), _walk(0.5), _walk(-0.8)]).astype(np.float32)
+    mu = np.array([[-1.0], [1.0], [0.5], [-0.8]])
+    beta = np.zeros((4, 6))
+    _, pca = pca_codes(chi, [0, 1, 2, 3], 1)
+    t = path_comparison(_Linear(), chi, beta, mu, 0, 1, [1, 2, 3], 5, 1, (1.0, 1.0, 1.0), pca, seed=0)
+    assert list(t.index) == ["latent", "raw_chi", "pca", "random_walk"]
+    assert t.loc["latent", "step_below_training"] and t.loc["raw_chi", "step_below_training"]
+    assert t.loc["pca", "step_below_training"]
+    # the random walk (steps of 0.5 in 1-D, from -1) goes nowhere near +1 monotonically by chance
+    walk = random_walk(mu[0], mu[1], 5, seed=0)[:, 0]
+    assert t.loc["random_walk", "forward_monotonic"] == is_monotonic(walk)
+    assert t.loc["random_walk", "smallest_step_m"] == pytest.approx(np.abs(walk).min(), abs=1e-6)

@@ -9,7 +9,9 @@
 
 In both, the task weights are GradNorm's (:mod:`.gradnorm`; re-initialised at phase 2 since
 the tasks change) and the KL term (:func:`mocapviz.models.cvae4d.kl_divergence`) has the fixed
-weight ``kl_weight`` (0.01). Training uses the cycles whose ``split`` is ``"train"`` (mirrored
+weight ``kl_weight`` (0.01). Each epoch's log row holds the mean task losses, weights (``w_``),
+weighted gradient norms (``G_``) and rates (``r_``) over its steps and ``w_ratio_max``, the largest
+ratio of two weights at any of its steps. Training uses the cycles whose ``split`` is ``"train"`` (mirrored
 copies included); every ``eval_every`` epochs the same losses (z = mu) are logged on the held-out
 cycles (other splits, without mirrored copies). There is no model selection: the last epoch is
 the model.
@@ -198,11 +200,11 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
         mesher = make_mesher(body or body_model(), ds.gamma_scale, cfg.vertex_subset)
     model.train()
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
-    gradnorm = GradNorm(TASKS[cfg.phase], alpha=cfg.alpha, lr=cfg.gradnorm_lr)
+    gradnorm = GradNorm(TASKS[cfg.phase], alpha=cfg.alpha, lr=cfg.gradnorm_lr, keep_history=False)
     rows, t0 = [], time.perf_counter()
     for epoch in tqdm(range(1, cfg.epochs + 1), desc=f"cvae4d phase {cfg.phase}", disable=not progress):
         order = np.random.default_rng([cfg.seed, epoch]).permutation(train_idx)
-        sums, n = {}, 0
+        sums, n, w_ratio = {}, 0, 1.0
         for i in range(0, len(order), cfg.batch_size):
             b = order[i:i + cfg.batch_size]
             chi, beta = torch.as_tensor(ds.chi[b]), torch.as_tensor(ds.beta[b])
@@ -217,7 +219,9 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
             for k, v in values.items():
                 sums[k] = sums.get(k, 0.0) + v * len(b)
             n += len(b)
-        row = dict(epoch=epoch, **{k: round(v / n, 6) for k, v in sums.items()},
+            w = [info[f"w_{t}"] for t in TASKS[cfg.phase]]
+            w_ratio = max(w_ratio, max(w) / min(w))
+        row = dict(epoch=epoch, **{k: round(v / n, 6) for k, v in sums.items()}, w_ratio_max=round(w_ratio, 4),
                    seconds=round(time.perf_counter() - t0, 2))
         if len(held_idx) and (epoch % cfg.eval_every == 0 or epoch == cfg.epochs):
             row.update({f"held_{k}": round(v, 6) for k, v in

@@ -3,24 +3,41 @@
 The 4D motion paper (§3.3) weights its partial reconstruction losses this way ([42]) but gives
 no asymmetry; what we do, per training step, with task losses L_i and weights w_i:
 
-- G_i = w_i ||grad_W L_i||, the norm of the weighted gradient at ``W``, the last layer whose
+- each task enters as its loss over its first value, scaled by the mean first value:
+  Lhat_i = L_i S / L_i(0), S = mean_j L_j(0) (L_i(0): the losses of the first step after
+  :meth:`GradNorm.reset`; see "Why the losses are normalised" below);
+- G_i = w_i ||grad_W Lhat_i||, the norm of the weighted gradient at ``W``, the last layer whose
   weights every task's output depends on (for the CVAE: the decoder's last hidden layer);
-- r_i = (L_i / L_i(0)) / mean_j(L_j / L_j(0)), the relative inverse training rate (L_i(0): the
-  losses of the first step after :meth:`GradNorm.reset`);
-- target_i = mean_j(G_j) r_i^alpha (held constant), L_grad = sum_i |G_i - target_i|; one Adam
-  step of the weights on L_grad, then the weights are renormalised to sum to the number of tasks.
+- r_i = (L_i / L_i(0)) / mean_j(L_j / L_j(0)), the relative inverse training rate;
+- target_i = mean_j(G_j) r_i^alpha (detached: a constant), L_grad = sum_i |G_i - target_i|; one
+  Adam step of the weights on L_grad, then the weights are renormalised to sum to the number of
+  tasks (a floor of 1e-3 times that sum keeps a weight from reaching 0 or below).
 
-The network's gradient is sum_i w_i grad L_i with the weights of this step (before their update).
-Each task's gradient is taken once at the network's output and serves both the norms and the
-network's step, so GradNorm costs no extra backward pass through the mesh or the encoder.
+The network's gradient is sum_i w_i grad Lhat_i with the weights of this step (before their
+update). Each task's gradient is taken once at the network's output and serves both the norms and
+the network's step, so GradNorm costs no extra backward pass through the mesh or the encoder.
+
+**Why the losses are normalised.** Chen et al. weight the raw losses. Ours are in different
+units: phase 2's spatial loss (m^2 summed over 13,000 vertices and 100 frames, ~1e4) and its time
+loss (~0.02), whose gradient norms at W started at 53,454 and 1.0. GradNorm on raw losses balances
+the G_i by weights ~5e4 apart: with the renormalisation the spatial weight went to ~1e-5, far
+below one Adam step of the weights (0.025), so it bounced between the floor and 0.025 from step to
+step (logged means 1.4e-4 to 4e-4 against ~2), the network's gradient changed scale by orders of
+magnitude between steps, and phase 2 moved the mean error by 0.2 %. Dividing each loss by its
+first value removes the units (the ratios r_i, and hence the targets, are unchanged by it), so
+the weights start balanced on losses of equal size, stay of order 1 and within a learning rate's
+reach; the common factor S keeps the total at the first step equal to the plain sum of the
+losses, the scale the paper's fixed KL weight (0.01) is relative to. ``normalise=False`` is
+Chen et al.'s raw-loss GradNorm.
 
 **alpha = 1.5** (``DEFAULT_ALPHA``): alpha sets how hard slow tasks are pulled back to the common
 rate (alpha = 0 only equalises gradient norms). Chen et al. use 1.5 on NYUv2's regression tasks
 (depth, normals), whose difficulties differ a lot, and 0.12 when tasks are near-identical. Ours
 differ even more -- the 100 time stamps of a cycle are almost a straight line, the 126 x 100
 rotation numbers are not -- and the paper asks for "losses decreasing in similar proportions",
-so we take Chen et al.'s value for dissimilar tasks. ``tests/test_gradnorm.py`` shows on a toy
-with one loss 100x the other that this alpha balances both the weighted gradients and the rates.
+so we take Chen et al.'s value for dissimilar tasks. ``tests/test_gradnorm.py`` checks on toys
+with losses 1x and 1000x that the weights stay near each other while balancing both the weighted
+gradients and the rates.
 """
 
 from __future__ import annotations
@@ -29,13 +46,16 @@ import torch
 
 DEFAULT_ALPHA = 1.5
 DEFAULT_LR = 0.025  # Adam on the weights (as the network's lr, it sets how fast they follow)
+FLOOR = 1e-3        # smallest weight, as a fraction of the number of tasks
 
 
 class GradNorm:
-    """Adaptive weights of ``names`` (tasks) balanced at one shared layer (module docstring)."""
+    """Adaptive weights of ``names`` (tasks) balanced at one shared layer (module docstring).
+    ``history`` (with ``keep_history``): one dict per step (losses L_, weights used w_, G_, r_)."""
 
-    def __init__(self, names, alpha: float = DEFAULT_ALPHA, lr: float = DEFAULT_LR):
-        self.alpha, self.lr = alpha, lr
+    def __init__(self, names, alpha: float = DEFAULT_ALPHA, lr: float = DEFAULT_LR, normalise: bool = True,
+                 keep_history: bool = True):
+        self.alpha, self.lr, self.normalise, self.keep_history = alpha, lr, normalise, keep_history
         self.reset(names)
 
     def reset(self, names) -> None:
@@ -45,12 +65,20 @@ class GradNorm:
         self.weights = torch.ones(len(self.names), requires_grad=True)
         self.optimizer = torch.optim.Adam([self.weights], lr=self.lr)
         self.initial: torch.Tensor | None = None
+        self.history: list[dict[str, float]] = []
 
     def current(self) -> dict[str, float]:
         return {n: float(w) for n, w in zip(self.names, self.weights.detach())}
 
+    def factors(self) -> torch.Tensor:
+        """The fixed factor of each loss in the network's objective: S / L_i(0) (ones without
+        ``normalise`` or before the first step)."""
+        if not self.normalise or self.initial is None:
+            return torch.ones(len(self.names))
+        return self.initial.mean() / self.initial
+
     def step(self, losses, output: torch.Tensor, shared: torch.Tensor, extra=None) -> dict[str, float]:
-        """One GradNorm step: backpropagates sum_i w_i L_i (+ ``extra``) into the parameters'
+        """One GradNorm step: backpropagates sum_i w_i Lhat_i (+ ``extra``) into the parameters'
         ``.grad`` (zero them before) and updates the weights.
 
         ``losses``: the task losses in the order of ``names``, each a function of ``output``
@@ -58,12 +86,14 @@ class GradNorm:
         weight tensor W; ``extra``: a loss with a fixed weight (the KL term). Each task's
         gradient at ``output`` is taken once (through the mesh, for the spatial loss) and serves
         both its norm at W (a short backward from ``output`` to W) and the one backward of the
-        weighted sum through the network. Returns the weights used, the G_i and the rates r_i."""
+        weighted sum through the network. Returns the weights used (w_), the G_i (G_), the rates
+        r_i (r_); with ``keep_history`` the same and the task losses (L_) are appended to ``history``."""
         losses = list(losses)
         values = torch.stack([loss.detach() for loss in losses])
         if self.initial is None:
             self.initial = values.clamp_min(1e-12)
-        at_output = [torch.autograd.grad(loss, output, retain_graph=True)[0] for loss in losses]
+        k = self.factors()
+        at_output = [ki * torch.autograd.grad(loss, output, retain_graph=True)[0] for ki, loss in zip(k, losses)]
         norms = torch.stack([torch.autograd.grad(output, shared, grad_outputs=g, retain_graph=True)[0].norm()
                              for g in at_output])
         w = self.weights.detach().clone()
@@ -82,9 +112,12 @@ class GradNorm:
         l_grad.backward()
         self.optimizer.step()
         with torch.no_grad():  # renormalise: sum of weights = number of tasks
-            self.weights.clamp_(min=1e-6)
-            self.weights.mul_(len(self.names) / self.weights.sum())
+            n = len(self.names)
+            self.weights.clamp_(min=FLOOR * n)
+            self.weights.mul_(n / self.weights.sum())
         out = {f"w_{n}": float(x) for n, x in zip(self.names, w)}
         out.update({f"G_{n}": float(x) for n, x in zip(self.names, w * norms)})
         out.update({f"r_{n}": float(x) for n, x in zip(self.names, rate)})
+        if self.keep_history:
+            self.history.append({**{f"L_{n}": float(x) for n, x in zip(self.names, values)}, **out})
         return out
