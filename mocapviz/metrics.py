@@ -48,10 +48,15 @@ def rel_p(pred: np.ndarray, true: np.ndarray) -> float:
     (Euclidean norms of whole frame vectors ``pred`` and ``true`` (N, D), no IK). The vectors
     are the motion representation itself (the continuous part of CCNet's x, raw units), not
     joint positions. 0 for a perfect prediction; 1 for predicting zeros."""
+    return float(rel_p_frames(pred, true).mean())
+
+
+def rel_p_frames(pred: np.ndarray, true: np.ndarray) -> np.ndarray:
+    """(N,) the per-frame terms |x̂_n - x_n| / |x_n| of :func:`rel_p` (for its spread)."""
     pred, true = np.asarray(pred, dtype=np.float64), np.asarray(true, dtype=np.float64)
     if pred.shape != true.shape or pred.ndim != 2:
         raise ValueError(f"rel_p needs two (N, D) arrays of one shape, got {pred.shape} and {true.shape}")
-    return float((np.linalg.norm(pred - true, axis=1) / np.linalg.norm(true, axis=1)).mean())
+    return np.linalg.norm(pred - true, axis=1) / np.linalg.norm(true, axis=1)
 
 
 def foot_sliding(positions: np.ndarray, contacts: np.ndarray, fps: float, feet) -> float:

@@ -396,6 +396,28 @@ print("committed: " + ", ".join(f"{name} C = {m.cfg.channels}" for name, (m, _) 
 # one-step error nor the freezing.
 
 # %% [markdown]
+# **A network that tracks its input.** `ccnet_next_frame_cpu` is the paper's network with two
+# named deviations: its mean is $\mathbf x_t$ plus the decoder's output (`CCNetConfig.residual`),
+# and it is 96 channels wide (skip 128), trained for 80 CPU minutes on windows of 120 frames
+# (config `next_frame_cpu`, models/README.md). Its one-step table on the same validation clips,
+# then the committed full table of every model on the validation and test clips
+# (`python -m data_prep one-step`, `results/ccnet_one_step.csv`):
+
+# %%
+nf_model, nf_norm, _ = zoo.load("ccnet_next_frame_cpu", retrain_if_missing=False)
+nf = one_step_table(nf_model, nf_norm, ds, val_rows)
+print(nf.round(4).to_string())
+for block in ("rot", "pos", "all"):
+    r = nf.loc[block]
+    print(f"{block}: mean error {r.mean_error:.4f} std, copy-last {r.copy_last:.4f} "
+          f"({'below' if r.mean_error < r.copy_last else 'ABOVE'}), constant velocity {r.extrapolate:.4f} "
+          f"({'below' if r.mean_error < r.extrapolate else 'ABOVE'})")
+one_step_csv = Path("../results/ccnet_one_step.csv")
+if one_step_csv.is_file():
+    full = pd.read_csv(one_step_csv)
+    print(full.pivot_table(index=["split", "block"], columns="model", values="mean_error").round(4).to_string())
+
+# %% [markdown]
 # ## 5c · Running free: where the error grows (drift)
 #
 # The one-step table feeds true frames. `one_step.drift_table` lets the network run on its own

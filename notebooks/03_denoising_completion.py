@@ -15,8 +15,10 @@
 
 # %% tags=["parameters"]
 QUICK = True             # quick: the quick dataset's test clips (CI); full: the full test split
-MODEL = "ccnet_wide"  # the CCNet compared (a name in models/zoo or a .safetensors file)
+MODEL = "ccnet_next_frame_cpu"  # the next-frame CCNet (a name in models/zoo or a .safetensors file)
+GENERATOR = "ccnet_phase_lerp_scale_root"  # the generate command's model, for comparison
 BASELINES = ("erd_quick", "dae_lstm_quick")
+DO_NOTHING = ("copy_last", "constant_velocity", "causal_smoother")  # mocapviz.tasks.do_nothing
 FIG_DIR = "../figures"
 
 # %% [markdown]
@@ -31,8 +33,11 @@ FIG_DIR = "../figures"
 # training data): the space the models read and where training added its 0.03 input noise, and
 # the only one where one std means the same for radians, metres and m/s. The error is the
 # Euclidean distance between repaired and clean frame vectors in the same units, over the
-# channels that vary in the training data; the row `noisy_input` is the error of the noisy frames
-# themselves (what doing nothing scores). **S-CMU**: our 15 CMU clips are all training clips of
+# channels that vary in the training data. Every table carries the predictors that do nothing
+# (`mocapviz.tasks.do_nothing`): copying the last noisy frame, constant velocity, and a causal
+# smoother (a least-squares polynomial through the last k noisy frames, k and degree chosen on the
+# validation clips per noise level). The row `noisy_input` is the error of the noisy frame itself,
+# which sees the frame it is scored on (no causal predictor does). **S-CMU**: our 15 CMU clips are all training clips of
 # every model (no CMU subject has two clips long enough to hold one out), so S-CMU here is
 # in-sample; the paper retrained its models on a CMU selection we do not have.
 
@@ -52,7 +57,7 @@ from mocapviz.tasks.denoising import Repairer, add_noise, complete_leg, error_sh
 torch.set_num_threads(1)
 fig_dir = Path(FIG_DIR)
 fig_dir.mkdir(parents=True, exist_ok=True)
-models = load_models({k: k for k in (MODEL, *BASELINES)})
+models = load_models({k: k for k in (MODEL, GENERATOR, *BASELINES)})
 ds = dataset(QUICK, n_types=models[MODEL][0].cfg.n_types)
 print(f"{MODEL} vs {', '.join(BASELINES)}; dataset {ds.meta['hash']} ({'quick' if QUICK else 'full'}), "
       f"{int((ds.clips.split == 'test').sum())} test clips")
@@ -63,20 +68,17 @@ print(f"{MODEL} vs {', '.join(BASELINES)}; dataset {ds.meta['hash']} ({'quick' i
 # %%
 # noise 0 as well: the error of the one-frame prediction from the clean past, the floor of every row
 table = denoising_table(models, ds, noise_stds=(0.0, 0.03, 0.05, 0.1), progress=True)
+table["model"] = table.model.str.replace(r"causal_smoother\(.*\)", "causal_smoother", regex=True)
 ours = table.pivot_table(index=["dataset", "noise_std"], columns="model", values="mean")
 ours_sd = table.pivot_table(index=["dataset", "noise_std"], columns="model", values="std")
-# the paper's Table 1 (mean, std), typed from the paper
-PAPER = pd.DataFrame(
-    [("D", 0.03, 0.768, 0.357, 0.687, 0.384, 0.528, 0.126), ("D", 0.05, 0.768, 0.357, 0.687, 0.384, 0.539, 0.125),
-     ("D", 0.1, 0.770, 0.361, 0.687, 0.384, 0.584, 0.117),
-     ("S-CMU", 0.03, 2.248, 1.132, 2.214, 1.364, 1.789, 1.250), ("S-CMU", 0.05, 2.251, 1.135, 2.214, 1.365, 1.789, 1.250),
-     ("S-CMU", 0.1, 2.246, 1.132, 2.217, 1.364, 1.788, 1.251)],
-    columns=["dataset", "noise_std", "ERD-4LR", "ERD-4LR sd", "DAE-LSTM", "DAE-LSTM sd", "CCNet", "CCNet sd"],
-).set_index(["dataset", "noise_std"])
+# the paper's Table 1 (mean, std), from results/paper_ccnet_table1.csv
+paper = pd.read_csv(REPO_ROOT / "results" / "paper_ccnet_table1.csv")
+PAPER = paper.pivot_table(index=["dataset", "noise_std"], columns="model", values="mean")
+PAPER_SD = paper.pivot_table(index=["dataset", "noise_std"], columns="model", values="std")
 side = pd.DataFrame({f"ours {m}": ours[m].round(3).astype(str) + " ± " + ours_sd[m].round(3).astype(str)
-                     for m in (*BASELINES, MODEL, "noisy_input")})
+                     for m in (MODEL, GENERATOR, *BASELINES, *DO_NOTHING, "noisy_input")})
 for m in ("ERD-4LR", "DAE-LSTM", "CCNet"):
-    side[f"paper {m}"] = PAPER[m].astype(str) + " ± " + PAPER[f"{m} sd"].astype(str)
+    side[f"paper {m}"] = PAPER[m].astype(str) + " ± " + PAPER_SD[m].astype(str)
 side
 
 # %%
@@ -93,15 +95,17 @@ if committed.is_file():   # the full-mode table (python -m data_prep apps-tables
 # %%
 for (dset, std), r in ours.iterrows():
     best_base = min(r[b] for b in BASELINES)
+    best_nothing = min(r[b] for b in DO_NOTHING)
     verdict = "holds" if r[MODEL] < best_base else "does NOT hold"
     print(f"{dset:6s} noise {std:<5}: CCNet {r[MODEL]:.3f} vs best baseline {best_base:.3f} "
-          f"({100 * (r[MODEL] - best_base) / best_base:+.1f} %): ordering {verdict}; "
+          f"({100 * (r[MODEL] - best_base) / best_base:+.1f} %): ordering {verdict}; best do-nothing "
+          f"{best_nothing:.3f} (CCNet {'below' if r[MODEL] < best_nothing else 'ABOVE'} it); "
           f"noisy input {r['noisy_input']:.3f} (CCNet {'below' if r[MODEL] < r['noisy_input'] else 'above'} it)")
 paper_ratio = (PAPER["CCNet"] / PAPER[["ERD-4LR", "DAE-LSTM"]].min(axis=1)).mean()
 our_ratio = (ours[MODEL] / ours[list(BASELINES)].min(axis=1)).mean()
 print(f"\nCCNet / best baseline, mean over rows: paper {paper_ratio:.2f}, ours {our_ratio:.2f}")
 clips_d = denoising_clips(ds)["D"]
-for m in (MODEL, *BASELINES):
+for m in (MODEL, GENERATOR, *BASELINES):
     s = sensitivity(Repairer(*models[m], reference=models[MODEL][1]), clips_d, 0.1)
     print(f"{m}: its repaired frames move by {s:.3f} x the size of input noise of std 0.1 "
           f"(1 = copying the last input frame, 0 = ignoring the input)")
@@ -129,11 +133,11 @@ pd.DataFrame(shares).round(3)
 # only through the past frames; that is why the paper's errors hardly change with the noise std.
 # Where that floor is above the noise itself, a model scores worse than the noisy input (the lines
 # above say where, and how much each model's output reacts to its input at all); the table of
-# blocks says which channels carry the error. Our models were trained for minutes on one CPU core
-# (models/README.md), not the paper's 2000 epochs on a GPU, on a dataset where one Bandai skeleton
-# holds most of the frames; the printed ratio says how far our ordering is from the paper's. Our
-# S-CMU clips are training clips, so that
-# dataset is in-sample for every model.
+# blocks says which channels carry the error. The next-frame model is the paper's network with
+# two named deviations (its mean is x_t plus the decoder's output, and it is 96 channels wide:
+# models/README.md), trained for 80 CPU minutes, not the paper's 2000 epochs on a GPU; the
+# generate command's model was trained to generate, not to track its input. Our S-CMU clips are
+# training clips, so that dataset is in-sample for every model.
 
 # %% [markdown]
 # ## 2 · Fig. 4(a-b): a denoised clip of the held-out subject (noise 0.08)
@@ -194,7 +198,9 @@ print(f"frames {a + 1}-{a + win} of {ds.clips['clip'][row]}, {win / ds.config.fp
 # joints to the truth, root-relative, cm.
 
 # %%
-long_row = int((ds.clips.stop - ds.clips.start)[ds.clips.split == "test"].idxmax())
+# the longest clip of the held-out subject: a body the network never saw
+unseen = (ds.clips.split == "test") & (ds.clips.subject == ds.meta["test_subject"])
+long_row = int((ds.clips.stop - ds.clips.start)[unseen].idxmax())
 res = complete_leg(rep, ds.clip_arrays(long_row), ds.skeleton(long_row), share=0.3, segment=30, seed=0)
 d = res["dropped"]
 fig, ax = plt.subplots(figsize=(12, 3.5))
@@ -210,6 +216,20 @@ fig.savefig(fig_dir / "ccnet_completion_fig4cd.png", dpi=90)
 print(f"on the zeroed frames: corrupted {res['corrupted_error'][d].mean():.1f} cm, "
       f"completed {res['completed_error'][d].mean():.1f} cm; elsewhere the completion is off by "
       f"{res['completed_error'][~d].mean():.1f} cm (its one-frame prediction error)")
+
+# %% [markdown]
+# Over every clip of the held-out subject (`data_prep.apps_tables.completion_table`): the leg's
+# error on the zeroed frames before and after completion, for each model and the predictors that
+# do nothing. A completion helps only where `completed_cm` is below `corrupted_cm`.
+
+# %%
+from data_prep.apps_tables import completion_table
+
+completion = completion_table({k: models[k] for k in (MODEL, GENERATOR, *BASELINES)}, ds)
+print(completion.round(2).to_string(index=False))
+for r in completion.itertuples():
+    print(f"{r.model}: the leg's error {'falls' if r.completed_cm < r.corrupted_cm else 'RISES'} from "
+          f"{r.corrupted_cm:.1f} to {r.completed_cm:.1f} cm")
 
 # %% [markdown]
 # Rendered (`completion_render`): four frames of the first zeroed run, the truth in grey behind

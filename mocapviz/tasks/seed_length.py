@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from mocapviz.metrics import rel_p
+from mocapviz.metrics import rel_p_frames
 
 SEED_LENGTHS = (1, 5, 10, 30, 60, 120)
 
@@ -25,7 +25,7 @@ def predicted_frames(clips: list[dict], longest: int, every: int = 60) -> list[t
 
 
 def seed_length_table(repairers: dict, clips: list[dict], lengths=SEED_LENGTHS, every: int = 60) -> pd.DataFrame:
-    """Rows (model, seed_frames, rel_p, n): the mean rel_p of the prediction of frame p from the
+    """Rows (model, seed_frames, rel_p, rel_p_std, n): the mean rel_p (and its std over frames) of the prediction of frame p from the
     L frames before it (nothing before them), over the same predicted frames for every model and
     every L (:func:`predicted_frames`). ``repairers``: name -> an object with
     :class:`mocapviz.tasks.denoising.Repairer`'s ``ref`` and ``repair``."""
@@ -41,6 +41,7 @@ def seed_length_table(repairers: dict, clips: list[dict], lengths=SEED_LENGTHS, 
                 out = rep.repair(ref.norm_x(x), c["skel"], c["traj"][p - length:p + 1], c["type_index"])
                 pred.append(out[-1] * ref.x_std + ref.x_mean)
                 true.append(x[-1, :n])
-            rows.append(dict(model=name, seed_frames=length, rel_p=rel_p(np.stack(pred), np.stack(true)),
-                             n=len(targets)))
+            per_frame = rel_p_frames(np.stack(pred), np.stack(true))
+            rows.append(dict(model=name, seed_frames=length, rel_p=float(per_frame.mean()),
+                             rel_p_std=float(per_frame.std()), n=len(targets)))
     return pd.DataFrame(rows)

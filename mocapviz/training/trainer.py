@@ -124,8 +124,8 @@ def offset_noise(x: torch.Tensor, std: float, n_continuous: int) -> torch.Tensor
     generation is off by the same amount on every recent frame. With an offset on the inputs and
     clean targets the network is meant to learn to pull such a pose back (most random offsets
     leave the low-dimensional set of real poses, and the rotation, position and velocity blocks
-    then disagree). In the generation experiments (docs/experiments.md) it did not: a residual network trained with offsets up to 0.3 std
-    still drifted by metres within 60 s.
+    then disagree). In the generation experiments (docs/experiments.md) it did not: a residual
+    network trained with offsets up to 0.3 std still drifted by metres within 60 s.
     """
     b = x.shape[0]
     scale = std * torch.rand(b, 1, 1)
@@ -230,8 +230,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
         meta["init"] = str(init)
     end = cfg.steps if stop_after is None else min(cfg.steps, stop_after)
     t0 = time.perf_counter() - (float(rows[-1]["seconds"]) if rows else 0.0)
-    bar = tqdm(range(start, 10 ** 9 if cfg.minutes else end), initial=start, total=cfg.steps, desc=f"train {cfg.model}-{cfg.size}",
-               disable=not progress or rank != 0)
+    bar = tqdm(range(start, 10 ** 9 if cfg.minutes else end), initial=start, total=cfg.steps,
+               desc=f"train {cfg.model}-{cfg.size}", disable=not progress or rank != 0)
     timer = StepBudget(cfg.minutes, start) if cfg.minutes else None
     for step in bar:
         if timer is not None and (steps := timer.steps(step) or timer.overrun(step, cfg.steps)):
