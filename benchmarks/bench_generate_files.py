@@ -1,4 +1,4 @@
-"""What the ``generate`` command makes of motion files: issue 9's pose-level quality of its output.
+"""What the ``generate`` command makes of motion files: the pose-level quality of its output.
 
     .venv/bin/python benchmarks/bench_generate_files.py [--model ccnet_phase_lerp_scale] [--seconds 60] [--sample]
         [--temperature 0.5] [--pace seed|network] [FILE.bvh:TYPE ...]

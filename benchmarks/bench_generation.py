@@ -7,7 +7,7 @@ One character and 64 at once, frames per second of the autoregressive loop (netw
 feeding the mean back), with the incremental stepper and with naive recomputation of the last
 CRL frames per new frame; max |incremental - full forward| over a generated sequence; and, over
 ten 60 s clips generated free-running from test seeds of locomotion and repeatable motion (walk,
-turning walk, run, jog, sneak, hop, walk-back, side step, waving, dash: issue 9's "Done when"),
+turning walk, run, jog, sneak, hop, walk-back, side step, waving, dash: the moving bar),
 with the mean output and with sampling (the ``generate`` command's pace and temperature unless told
 otherwise: :mod:`mocapviz.tasks.generation_defaults`), the pose-level quality of seconds 30-60 (:mod:`mocapviz.tasks.generation_quality`): freezing
 share, activity and jitter ratios to the real clips of the same type, and the root height

@@ -97,7 +97,7 @@ def test_numpy_and_torch_steppers_agree(committed):
                                        atol=2e-5)
 
 
-FROZEN_DEFAULT = pytest.mark.xfail(strict=True, reason="issue 9: ccnet_default (dataset v4, 90% Bandai) keeps "
+FROZEN_DEFAULT = pytest.mark.xfail(strict=True, reason="measured: ccnet_default (dataset v4, 90% Bandai) keeps "
                                    "Bandai seeds moving but not the held-out HDM05 subject's jog nor CMU 91's walk")
 
 
@@ -105,11 +105,11 @@ FROZEN_DEFAULT = pytest.mark.xfail(strict=True, reason="issue 9: ccnet_default (
     pytest.param("ccnet_default", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=FROZEN_DEFAULT),
     pytest.param("ccnet_default", "91_02", marks=FROZEN_DEFAULT),
     pytest.param("ccnet_phase", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=pytest.mark.xfail(
-        strict=True, reason="issue 9: ccnet_phase keeps the held-out subject's jog moving (never frozen), but "
+        strict=True, reason="measured: ccnet_phase keeps the held-out subject's jog moving (never frozen), but "
                             "nearly in place: 0.60 m/s over the last 5 s against its clip's 1.64")),
     ("ccnet_phase", "91_02"),
     pytest.param("ccnet_phase_lerp", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=pytest.mark.xfail(
-        strict=True, reason="issue 9: ccnet_phase_lerp keeps the held-out subject's jog from freezing, but it "
+        strict=True, reason="measured: ccnet_phase_lerp keeps the held-out subject's jog from freezing, but it "
                             "jogs nearly in place: 0.37 m/s over the last 5 s against its clip's 1.64")),
     ("ccnet_phase_lerp", "91_02"),
     ("ccnet_phase_lerp_scale", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
@@ -137,7 +137,7 @@ def test_generated_motion_keeps_moving(ds, name, clip):
 
 
 HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
-    "issue 9: ccnet_phase_lerp learnt Bandai's root height, not the body's (90 % of dataset v4's frames are "
+    "measured: ccnet_phase_lerp learnt Bandai's root height, not the body's (90 % of dataset v4's frames are "
     "Bandai's one body): taller bodies drop 0.1-0.2 m on the first generated frame (CMU 35_01 1.00 -> 0.81 m, "
     "the held-out tr jog 0.94 -> 0.82), then bend their knees to reach the floor. Runs H1-H3 "
     "(models/README.md: the height anchored to c^s, c^s normalised per body, both) were not better overall"))
@@ -146,14 +146,14 @@ HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
 # every body at many sizes (body_scale): the scaled model reads a body's size, but not yet to the
 # centimetre at the seed's end (models/README.md, "Every body at many sizes")
 SCALED_HEIGHT_JUMP = pytest.mark.xfail(strict=True, reason=(
-    "issue 9: ccnet_phase_lerp_scale (trained on every body at 0.9-1.25x its size) keeps the held-out tr "
+    "measured: ccnet_phase_lerp_scale (trained on every body at 0.9-1.25x its size) keeps the held-out tr "
     "jog's root height at the seed's end, but moves others on the first generated frame: the Bandai walk "
     "0.864 -> 0.901 m, CMU 91 (the shortest body) 0.849 -> 0.953, CMU 35 (the tallest) 1.000 -> 0.924 (ccnet_phase_lerp: 0.81)"))
 
 
 # the root from the past alone (root_without_z) reads the tall bodies' height worse than S1 did
 ROOT_HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
-    "issue 9: ccnet_phase_lerp_scale_root (the root decoded without z) drops the tall bodies on the first "
+    "measured: ccnet_phase_lerp_scale_root (the root decoded without z) drops the tall bodies on the first "
     "generated frame: the held-out tr jog 0.940 -> 0.852 m, CMU 35 1.000 -> 0.794 (ccnet_phase_lerp_scale: "
     "0.924); Bandai's and CMU 91's body keep their height"))
 

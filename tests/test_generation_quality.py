@@ -1,4 +1,4 @@
-"""The seeds of the generation-quality benchmark (issue 9's "Done when"): locomotion and
+"""The seeds of the generation-quality benchmark (the moving bar): locomotion and
 repeatable motion from the test split, one per entry of LOCOMOTION_SEEDS; the bar a seed must
 clear; the pose distance, which must see a pose of the wrong motion type."""
 
@@ -44,7 +44,7 @@ def test_moves_like_real_by_hand():
 
 
 def test_issue_bar_by_hand():
-    """The issue's own bar reads freezing, activity and jitter only: poses far from real ones or a
+    """The moving bar reads freezing, activity and jitter only: poses far from real ones or a
     gliding root pass it, and fail moves_like_real."""
     walk = dict(freezing_share=0.0, activity_ratio=1.0, jitter_ratio=1.0, pose_distance_ratio=1.0,
                 root_speed_ratio=1.0, root_speed_difference=0.0)
@@ -58,7 +58,7 @@ def test_issue_bar_by_hand():
 def test_lying_down_is_far_from_the_walk_poses_but_near_some_training_pose(ds):
     """A held-out clip of lying down, measured as if it were a generated walk: against the walk
     poses it sits 6-8x as far as the held-out real walks (quick dataset); against every training
-    pose (the measure before issue 9's phase model) it sat nearer than they do, so a walk seed that
+    pose (the measure before the phase model) it sat nearer than they do, so a walk seed that
     folded onto the floor passed."""
     banks, everything = TypeBanks(ds), pose_bank(ds)
     walk_ref = real_pose_distance(ds, banks["walk"], "walk")

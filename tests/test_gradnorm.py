@@ -107,7 +107,7 @@ def test_same_task_at_two_scales_gets_equal_weights():
 
 
 def test_raw_loss_gradnorm_puts_the_scale_into_the_weights():
-    """Without the normalisation (the code before issue 32, apart from its floor) the 1000x task's
+    """Without the normalisation (the code before the normalisation, apart from its floor) the 1000x task's
     weight is pushed to the floor: weights ~1000x apart (before: to 1e-6, 2e6x apart)."""
     gn = _toy(normalise=False)
     assert _weight_ratios(gn, after=100).min() > 100

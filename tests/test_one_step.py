@@ -76,7 +76,7 @@ def test_root_bias_of_a_network_that_copies_its_input_by_hand(ds):
 ])
 def test_root_bias_sees_a_standing_type_pushed_forward(ds, name, pushes):
     """Teacher-forced on training clips of the standing types, the mean root's forward error is
-    what a generated waving walks off at (issue 9: ccnet_phase_lerp_scale 0.26 m/s)."""
+    what a generated waving walks off at (measured: ccnet_phase_lerp_scale 0.26 m/s)."""
     from data_prep import zoo
     from mocapviz.tasks.one_step import root_bias_table
     model, norm, _ = zoo.load(name, retrain_if_missing=False)

@@ -1,4 +1,4 @@
-"""Seeds shorter than CCNet's receptive field (issue 33, Table 7): the generate command takes
+"""Seeds shorter than CCNet's receptive field (paper Table 7): the generate command takes
 any seed of one frame or more, as the paper's causal network does (zero padding before the
 first frame), and warns below the receptive field + 1 frames (42 at 60 fps for the command's
 model: a frame vector needs the frame before it).

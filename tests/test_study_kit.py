@@ -104,7 +104,7 @@ def test_study_pairs_real_against_generated_from_the_same_seed(data_dir):
     assert gen.motion.n_frames == 60 and gen.motion.fps == 60
     # the generated side continues from the seed: it starts where the real clip's seed ended
     # (on the ground: the model's first root *height* may jump, e.g. 0.98 -> 0.74 m after a
-    # lie-down seed with ccnet_default of dataset v4, a model defect issue 9 records, not the kit's)
+    # lie-down seed with ccnet_default of dataset v4, a model defect docs/experiments.md records, not the kit's)
     start = np.linalg.norm(gen.motion.root_positions[0, [0, 2]] - ds.clip_motion(rows[0]).root_positions[59, [0, 2]])
     assert start < 0.1
     # the two "models" are the same network: the same clips

@@ -35,7 +35,7 @@ def test_printed_number_intervals():
 
 
 def test_welch_t_of_the_dae_lstm_row(recheck):
-    # the "near -12.7": Welch's t from the printed means and SDs with 15 and 16 participants
+    # "near -12.7": Welch's t from the printed means and SDs with 15 and 16 participants
     r = _row(recheck, "Table 2", "DAE-LSTM", "t", "Welch, SD as ddof 1, n 15 vs 16")
     by_hand = (1.75 - 6.625) / np.sqrt(0.968 ** 2 / 15 + 1.165 ** 2 / 16)
     assert r.value == pytest.approx(by_hand, rel=1e-12) and round(r.value, 1) == -12.7

@@ -170,7 +170,7 @@ def test_the_generate_commands_model_has_its_type_prior():
                                   "dataset-2_wave-right-hand_normal_001"])
 def test_the_type_prior_steadies_the_sampled_wavings_feet(ds, clip):
     """Sampled 20 s from a Bandai waving take's 1 s seed, seconds 10-20: N(0, I)'s z = 0 decodes
-    an average of all types, and the feet step in place (issue 9: the test seed's sampled jitter
+    an average of all types, and the feet step in place (measured: the test seed's sampled jitter
     3.45-3.57x the real wavings'); the type prior's draws cut the feet's jitter by a quarter or
     more (measured 0.50-0.63x on these takes; the feet still move more than the real ones)."""
     model, norm, _ = zoo.load(GENERATION_MODEL, retrain_if_missing=False)

@@ -15,7 +15,7 @@
   from above = a left turn, :mod:`mocapviz.heading`'s convention);
 - :func:`is_monotonic` and :func:`smallest_step`: the checks on those measurements.
 
-Checks that can fail (issue 32): a number for the latent space alone says little unless
+Checks that can fail: a number for the latent space alone says little unless
 something simpler is measured the same way.
 
 - :func:`clustering_scores`: :func:`neighbour_agreement` of the motion types in the latent

@@ -161,7 +161,7 @@ TRAIN_CONFIGS = {
     # Run H2 (models/README.md): the held-out subject's jog keeps its height and pace (activity 1.10x,
     # mean), but its sneak, the walk-back and the side step run off, the CMU file seeds walk in place,
     # and validation NLL is -59.7 against -92.2: not committed. skel_per_body alone (run H3): -66.5,
-    # no better on the issue's bar.
+    # no better on the moving bar.
     "phase_lerp_body": replace(PHASE_LERP, height_anchor=True, skel_per_body=True),
     # "phase_lerp" with each training window's body scaled by s ~ U(0.9, 1.25) (body_scale,
     # WindowData.scaled): Bandai's body (root 0.84 m) then spans 0.76-1.05 m, the training bodies' range
