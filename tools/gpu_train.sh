@@ -9,8 +9,10 @@
 # Dry run on a CPU: DEVICE=cpu MIN=0.3 BATCH=4 SIZE=quick OUT=cache/gpu_dry tools/gpu_train.sh
 set -uo pipefail
 export PYTHONUNBUFFERED=1
-for f in cache/pack/ccnet.npz cache/pack/motions-{0,1,2}.npz; do
-    [ -f "$f" ] || { echo "missing $f: carry cache/pack (python -m data_prep pack-ccnet)"; exit 1; }
+n=$(python3 -c "import numpy as np; print(int(np.load('cache/pack/ccnet.npz')['chunks']))" 2>/dev/null) || n=0
+[ "$n" -gt 0 ] || { echo "missing cache/pack/ccnet.npz: carry cache/pack (python -m data_prep pack-ccnet)"; exit 1; }
+for k in $(seq 0 $((n - 1))); do
+    [ -f "cache/pack/motions-$k.npz" ] || { echo "missing cache/pack/motions-$k.npz (one device call carries each chunk)"; exit 1; }
 done
 MIN=${MIN:-6}
 CONFIGS=${CONFIGS:-"paper_gpu paper_gpu_residual"}
