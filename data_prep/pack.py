@@ -5,7 +5,7 @@ clip's 25 local joint rotations as rotation vectors and its root path, at the so
 frame rate, before Bandai's 30 -> 60 fps resampling; quantised to 1e-5 rad / 1e-5 m,
 delta-coded along time, byte-shuffled and LZMA-compressed), the exact contact labels, and
 everything else the dataset holds but x and c^d (split, c^s, rest offsets, the normaliser,
-metadata), in ``--chunks`` files of ~15 MiB each (29 MiB in all where the ``.npz`` cache is
+metadata), in ``--chunks`` files (4 by default, ~7 MiB each; 29 MiB in all where the ``.npz`` cache is
 550 MB): the device tool carries at most 64 MiB of tree a call, and files carried by one call
 stay on the machine for the next. :func:`unpack` rebuilds x and c^d from the motions with the
 dataset's own pipeline (``Motion.resample``, :func:`mocapviz.features.ccnet.motion_features`,
