@@ -1,8 +1,9 @@
-"""``python -m data_prep {catalog,build,download,train,train-cvae,cvae4d-prediction,apps-tables}``: see ``--help`` of each subcommand."""
+"""``python -m data_prep {catalog,build,download,known-rests,train,...}`` (the rest in ``MODULE_COMMANDS``): see ``--help`` of each subcommand."""
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from pathlib import Path
 
@@ -61,44 +62,24 @@ def _known_rests(args) -> int:
     return 0
 
 
-def _train(args) -> int:
-    from data_prep.train import run
-    return run(args)
-
-
-def _fit_type_prior(args) -> int:
-    from data_prep.type_prior import run
-    return run(args)
-
-
-def _apps_tables(args) -> int:
-    from data_prep.apps_tables import run
-    return run(args)
-
-
-def _pack(args) -> int:
-    from data_prep.pack import run
-    return run(args)
-
-
-def _one_step(args) -> int:
-    from data_prep.one_step_report import run
-    return run(args)
-
-
-def _generation_table(args) -> int:
-    from data_prep.generation_table import run
-    return run(args)
-
-
-def _train_cvae(args) -> int:
-    from data_prep.train_cvae import run
-    return run(args)
-
-
-def _cvae4d_prediction(args) -> int:
-    from data_prep.cvae4d_prediction import run
-    return run(args)
+# subcommands whose module has add_arguments(parser) and run(args) -> int: name, module, help
+MODULE_COMMANDS = (
+    ("train", "data_prep.train", "train a model on the CCNet dataset (see data_prep/train.py)"),
+    ("fit-type-prior", "data_prep.type_prior", "fit a latent CCNet's prior of z given the motion type and write "
+     "it beside the checkpoint (see data_prep/type_prior.py)"),
+    ("apps-tables", "data_prep.apps_tables", "CCNet Table 1 (denoising), completion, Table 7 and trajectory "
+     "following against the baselines into results/ (see data_prep/apps_tables.py)"),
+    ("pack-ccnet", "data_prep.pack", "a compact copy of the CCNet dataset (~30 MB) for a machine without the raw "
+     "data, e.g. a lent GPU (see data_prep/pack.py)"),
+    ("one-step", "data_prep.one_step_report", "teacher-forced one-step error of CCNet models on held-out clips "
+     "beside copy-last and constant velocity (see data_prep/one_step_report.py)"),
+    ("generation-table", "data_prep.generation_table", "long free-running generation of CCNet models measured "
+     "on poses into results/ccnet_generation.csv (see data_prep/generation_table.py)"),
+    ("train-cvae", "data_prep.train_cvae", "train the 4D motion CVAE (phases 1, 2, ablations) or write its "
+     "reconstruction table (see data_prep/train_cvae.py)"),
+    ("cvae4d-prediction", "data_prep.cvae4d_prediction", "4D motion prediction (paper 2 §5): train Residual-sup "
+     "or write results/cvae4d_prediction.csv (see data_prep/cvae4d_prediction.py)"),
+)
 
 
 def parser() -> argparse.ArgumentParser:
@@ -134,52 +115,11 @@ def parser() -> argparse.ArgumentParser:
     k.add_argument("--data-dir", default=None)
     k.set_defaults(func=_known_rests)
 
-    from data_prep.train import add_arguments
-    t = sub.add_parser("train", help="train a model on the CCNet dataset (see data_prep/train.py)")
-    add_arguments(t)
-    t.set_defaults(func=_train)
-
-    from data_prep.type_prior import add_arguments as add_prior_arguments
-    tp = sub.add_parser("fit-type-prior", help="fit a latent CCNet's prior of z given the motion type and write it "
-                        "beside the checkpoint (see data_prep/type_prior.py)")
-    add_prior_arguments(tp)
-    tp.set_defaults(func=_fit_type_prior)
-
-    from data_prep.apps_tables import add_arguments as add_apps_arguments
-    ap = sub.add_parser("apps-tables", help="CCNet Table 1 (denoising) and trajectory following against the "
-                        "baselines into results/ (see data_prep/apps_tables.py)")
-    add_apps_arguments(ap)
-    ap.set_defaults(func=_apps_tables)
-
-    from data_prep.pack import add_arguments as add_pack_arguments
-    pk = sub.add_parser("pack-ccnet", help="a compact copy of the CCNet dataset (~30 MB) for a machine without "
-                        "the raw data, e.g. a lent GPU (see data_prep/pack.py)")
-    add_pack_arguments(pk)
-    pk.set_defaults(func=_pack)
-
-    from data_prep.one_step_report import add_arguments as add_one_step_arguments
-    os_ = sub.add_parser("one-step", help="teacher-forced one-step error of CCNet models on held-out clips "
-                         "beside copy-last and constant velocity (see data_prep/one_step_report.py)")
-    add_one_step_arguments(os_)
-    os_.set_defaults(func=_one_step)
-
-    from data_prep.generation_table import add_arguments as add_generation_arguments
-    gt = sub.add_parser("generation-table", help="long free-running generation of CCNet models measured on poses "
-                        "into results/ccnet_generation.csv (see data_prep/generation_table.py)")
-    add_generation_arguments(gt)
-    gt.set_defaults(func=_generation_table)
-
-    from data_prep.train_cvae import add_arguments as add_cvae_arguments
-    v = sub.add_parser("train-cvae", help="train the 4D motion CVAE (phases 1, 2, ablations) or write its "
-                       "reconstruction table (see data_prep/train_cvae.py)")
-    add_cvae_arguments(v)
-    v.set_defaults(func=_train_cvae)
-
-    from data_prep.cvae4d_prediction import add_arguments as add_prediction_arguments
-    pr = sub.add_parser("cvae4d-prediction", help="4D motion prediction (paper 2 §5): train Residual-sup or write "
-                        "results/cvae4d_prediction.csv (see data_prep/cvae4d_prediction.py)")
-    add_prediction_arguments(pr)
-    pr.set_defaults(func=_cvae4d_prediction)
+    for name, module, help_text in MODULE_COMMANDS:
+        mod = importlib.import_module(module)
+        sp = sub.add_parser(name, help=help_text)
+        mod.add_arguments(sp)
+        sp.set_defaults(func=mod.run)
     return p
 
 
