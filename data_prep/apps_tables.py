@@ -39,7 +39,7 @@ from pathlib import Path
 NOISE_STDS = (0.03, 0.05, 0.1)
 QUICK_SEEDS = 8
 # the next-frame CCNet (the tables' model) and the generate command's model
-DEFAULT_CCNETS = ("ccnet_next_frame_cpu", "ccnet_phase_lerp_scale_root")
+DEFAULT_CCNETS = ("ccnet_paper", "ccnet_generate")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-DEFAULT_MODELS = ("ccnet_default", "ccnet_next_frame_cpu", "ccnet_phase_lerp_scale_root")
+DEFAULT_MODELS = ("ccnet_default", "ccnet_paper", "ccnet_generate")
 
 
 def add_arguments(p) -> None:

@@ -1,4 +1,4 @@
-"""``python -m data_prep fit-type-prior --model ccnet_phase_lerp_scale_root``: fit a latent CCNet's
+"""``python -m data_prep fit-type-prior --model ccnet_generate``: fit a latent CCNet's
 prior of z given the motion type (:mod:`mocapviz.tasks.type_prior_fit`) on the training clips of the
 CCNet dataset, and write it beside the checkpoint, where loading the model finds it.
 """

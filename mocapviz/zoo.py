@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -21,12 +22,35 @@ from mocapviz.training.config import TRAIN_CONFIGS
 from mocapviz.training.runs import export_model
 from mocapviz.training.trainer import train
 
-MODELS = {f"ccnet_{k}": cfg for k, cfg in TRAIN_CONFIGS.items()}  # name -> the training config that makes it
+# zoo name -> (TRAIN_CONFIGS key, the `python -m data_prep train` options that differ from it)
+RECIPES = {f"ccnet_{k}": (k, {}) for k in TRAIN_CONFIGS if k != "paper_next_frame"}
+# the paper's network as committed (trained for next-frame prediction on a CPU); TRAIN_CONFIGS["paper"],
+# the paper's own schedule, is what `--config paper` trains
+RECIPES["ccnet_paper"] = ("paper_next_frame", {})
 # the CCNet baselines of paper §4.1.2 (mocapviz.models.baseline), each trained as its committed file was
 # (pfnn: 400 steps, what one shared core had time for; docs/experiments.md)
-MODELS.update({f"{m}_quick": replace(TRAIN_CONFIGS["quick"], model=m, steps=n, eval_every=n, checkpoint_every=n)
-               for m, n in (("erd", 1200), ("dae_lstm", 1200), ("pfnn", 400))})
+RECIPES.update({f"{m}_quick": ("quick", {"model": m, "steps": n, "eval_every": n})
+                for m, n in (("erd", 1200), ("dae_lstm", 1200), ("pfnn", 400))})
+
+
+def _recipe_config(key: str, options: dict):
+    cfg = replace(TRAIN_CONFIGS[key], **options)  # --eval-every sets the checkpoint cadence too
+    return replace(cfg, checkpoint_every=cfg.eval_every) if "eval_every" in options else cfg
+
+
+MODELS = {name: _recipe_config(k, o) for name, (k, o) in RECIPES.items()}  # name -> the config that makes it
+# old zoo names -> their names by role; an old name still loads, with a DeprecationWarning
+RENAMED = {"ccnet_phase_lerp_scale_root": "ccnet_generate", "ccnet_next_frame_cpu": "ccnet_paper"}
 ZOO_ENV = "MOCAPVIZ_ZOO"  # folders (os.pathsep-separated) searched first for a model by name
+
+
+def canonical_name(name: str) -> str:
+    """``name``, or the name an old zoo name (:data:`RENAMED`) now has, with a DeprecationWarning."""
+    if name in RENAMED:
+        warnings.warn(f"model {name!r} is now called {RENAMED[name]!r}; the old name will go", DeprecationWarning,
+                      stacklevel=3)
+        return RENAMED[name]
+    return name
 
 
 def search_path(cwd=None) -> list[Path]:
@@ -47,6 +71,7 @@ def find_checkpoint(name_or_file: str, cwd=None) -> Path:
         if p.is_file():
             return p
         raise FileNotFoundError(f"model file not found: {p}")
+    name_or_file = canonical_name(name_or_file)
     tried = search_path(cwd)
     for folder in tried:
         if committed_path(name_or_file, folder).is_file():
@@ -57,13 +82,14 @@ def find_checkpoint(name_or_file: str, cwd=None) -> Path:
 
 
 def committed_path(name: str, zoo_dir) -> Path:
-    return Path(zoo_dir) / f"{name}.safetensors"
+    return Path(zoo_dir) / f"{canonical_name(name)}.safetensors"
 
 
 def load(name: str = "ccnet_default", zoo_dir=None, cache_dir=None, dataset=None, retrain_if_missing: bool = True,
          prefer_committed: bool = True, progress: bool = True):
     """``dataset``: a CCNet dataset, or a function that builds one (called only when no committed
     checkpoint is used); it keys the cached run and is what a missing run trains on."""
+    name = canonical_name(name)
     if name not in MODELS:
         raise KeyError(f"unknown model {name!r}; known: {sorted(MODELS)}")
     if prefer_committed and zoo_dir is not None and committed_path(name, zoo_dir).is_file():

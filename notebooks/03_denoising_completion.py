@@ -15,8 +15,8 @@
 
 # %% tags=["parameters"]
 QUICK = True             # quick: the quick dataset's test clips (CI); full: the full test split
-MODEL = "ccnet_next_frame_cpu"  # the next-frame CCNet (a name in models/zoo or a .safetensors file)
-GENERATOR = "ccnet_phase_lerp_scale_root"  # the generate command's model, for comparison
+MODEL = "ccnet_paper"  # the next-frame CCNet (a name in models/zoo or a .safetensors file)
+GENERATOR = "ccnet_generate"  # the generate command's model, for comparison
 BASELINES = ("erd_quick", "dae_lstm_quick")
 DO_NOTHING = ("copy_last", "constant_velocity", "causal_smoother")  # mocapviz.tasks.do_nothing
 FIG_DIR = "../figures"

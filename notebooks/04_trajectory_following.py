@@ -15,7 +15,7 @@
 
 # %% tags=["parameters"]
 QUICK = True             # quick: 4 seeds of the quick dataset (CI); full: every locomotion test clip
-MODEL = "ccnet_phase_lerp_scale_root"  # the generate command's model (a name in models/zoo or a .safetensors file)
+MODEL = "ccnet_generate"  # the generate command's model (a name in models/zoo or a .safetensors file)
 BASELINES = ("pfnn_quick", "erd_quick")
 FIG_DIR = "../figures"
 

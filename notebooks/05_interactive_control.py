@@ -15,7 +15,7 @@
 
 # %% tags=["parameters"]
 QUICK = True            # quick: a 10 s scripted session (CI); full: 30 s and the live control
-MODEL = "ccnet_phase_lerp_scale_root"  # the recommended generator (the generate command's model)
+MODEL = "ccnet_generate"  # the recommended generator (the generate command's model)
 FIG_DIR = "../figures"
 
 # %% [markdown]

@@ -114,8 +114,8 @@ FROZEN_DEFAULT = pytest.mark.xfail(strict=True, reason="measured: ccnet_default 
     ("ccnet_phase_lerp", "91_02"),
     ("ccnet_phase_lerp_scale", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
     ("ccnet_phase_lerp_scale", "91_02"),
-    ("ccnet_phase_lerp_scale_root", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
-    ("ccnet_phase_lerp_scale_root", "91_02"),
+    ("ccnet_generate", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
+    ("ccnet_generate", "91_02"),
 ])
 def test_generated_motion_keeps_moving(ds, name, clip):
     """10 s free-running (the network's own c^d) from a 1 s seed: the held-out subject jogging
@@ -153,7 +153,7 @@ SCALED_HEIGHT_JUMP = pytest.mark.xfail(strict=True, reason=(
 
 # the root from the past alone (root_without_z) reads the tall bodies' height worse than S1 did
 ROOT_HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
-    "measured: ccnet_phase_lerp_scale_root (the root decoded without z) drops the tall bodies on the first "
+    "measured: ccnet_generate (the root decoded without z) drops the tall bodies on the first "
     "generated frame: the held-out tr jog 0.940 -> 0.852 m, CMU 35 1.000 -> 0.794 (ccnet_phase_lerp_scale: "
     "0.924); Bandai's and CMU 91's body keep their height"))
 
@@ -167,10 +167,10 @@ ROOT_HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
     pytest.param("ccnet_phase_lerp_scale", "91_02", marks=SCALED_HEIGHT_JUMP),
     ("ccnet_phase_lerp_scale", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
     pytest.param("ccnet_phase_lerp_scale", "35_01", marks=SCALED_HEIGHT_JUMP),
-    ("ccnet_phase_lerp_scale_root", "dataset-2_walk-turn-left_active_005"),
-    ("ccnet_phase_lerp_scale_root", "91_02"),
-    pytest.param("ccnet_phase_lerp_scale_root", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=ROOT_HEIGHT_DROP),
-    pytest.param("ccnet_phase_lerp_scale_root", "35_01", marks=ROOT_HEIGHT_DROP),
+    ("ccnet_generate", "dataset-2_walk-turn-left_active_005"),
+    ("ccnet_generate", "91_02"),
+    pytest.param("ccnet_generate", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=ROOT_HEIGHT_DROP),
+    pytest.param("ccnet_generate", "35_01", marks=ROOT_HEIGHT_DROP),
 ])
 def test_first_generated_frame_keeps_the_bodys_root_height(ds, clip, name):
     """The first generated frame continues the seed's root height (a real root moves millimetres

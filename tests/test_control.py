@@ -20,7 +20,7 @@ WALK, JOG = MOTION_TYPES.index("walk"), MOTION_TYPES.index("jog")
 N_TYPES = len(MOTION_TYPES)
 # every committed CCNet that control must drive: the paper's architecture on dataset v4's 21
 # types, and the generate command's model (a phase, a latent z with a type prior: its c^d is 14 wide)
-CONTROL_MODELS = ("ccnet_default", "ccnet_phase_lerp_scale_root")
+CONTROL_MODELS = ("ccnet_default", "ccnet_generate")
 
 
 def test_number_key_blends_the_label_over_20_frames():

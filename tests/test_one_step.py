@@ -72,7 +72,7 @@ def test_root_bias_of_a_network_that_copies_its_input_by_hand(ds):
 @pytest.mark.parametrize("name, pushes", [
     ("ccnet_phase", False),              # a z per frame: its prior's mean is where the clips' posteriors are
     ("ccnet_phase_lerp_scale", True),    # knots of z 10 frames apart, N(0, I) prior: z = 0 decodes a pace
-    ("ccnet_phase_lerp_scale_root", False),  # ... with the root decoded without z (root_without_z)
+    ("ccnet_generate", False),            # ... with the root decoded without z (root_without_z)
 ])
 def test_root_bias_sees_a_standing_type_pushed_forward(ds, name, pushes):
     """Teacher-forced on training clips of the standing types, the mean root's forward error is

@@ -2,7 +2,7 @@
 
 A latent model (``CCNetConfig.latent``) is trained with the prior N(0, I) for z, but the
 posterior of a motion type's clips does not sit around 0: z = 0 decodes an average of all types,
-and the generated waving of ``ccnet_phase_lerp_scale_root`` stepped its feet in place (foot jitter
+and the generated waving of ``ccnet_generate`` stepped its feet in place (foot jitter
 18-25x the real waving's). The type prior is each type's aggregate posterior over the
 training clips, as one Gaussian: the mean of the posterior means of its knots, and their covariance
 plus the mean posterior variance (the moments of the mixture of the knots' posteriors). Fitting a

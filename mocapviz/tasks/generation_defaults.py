@@ -5,7 +5,7 @@ own defaults are the model's plain output: its own plan (pace "network") and tem
 # trained on every body at many sizes, with the root decoded from the past alone (root_without_z):
 # chosen over ccnet_phase_lerp_scale on the validation seeds, whose standing types it pushed
 # 0.25-0.30 m/s forward (docs/experiments.md, "Why the waving walked off", says what each costs)
-GENERATION_MODEL = "ccnet_phase_lerp_scale_root"
+GENERATION_MODEL = "ccnet_generate"
 
 # "seed": without a path, hold the speed of the plan (c^d) at the seed's end. With the network's own
 # plan fed back frame by frame, ccnet_phase_lerp's Bandai run test seed slowed to 0.27x the real

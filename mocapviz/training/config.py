@@ -169,7 +169,7 @@ TRAIN_CONFIGS = {
     # Run S1 (models/README.md, "Every body at many sizes"): the held-out tr jog passes both ways, but
     # its sneak turns into a jog and the Bandai walks run; validation NLL -83.2 against -92.2. Its
     # plan held at the seed's pace (Generator pace="seed"), walks walk and the sneak sneaks: committed
-    # as ccnet_phase_lerp_scale, the generate command's model until ccnet_phase_lerp_scale_root. 31 min on one shared core.
+    # as ccnet_phase_lerp_scale, the generate command's model until ccnet_generate. 31 min on one shared core.
     "phase_lerp_scale": replace(PHASE_LERP, body_scale=(0.9, 1.25)),
     # Run S2: with the height anchor too; the Bandai run seeds jog in place.
     "phase_lerp_scale_anchor": replace(PHASE_LERP, body_scale=(0.9, 1.25), height_anchor=True),
@@ -187,8 +187,8 @@ TRAIN_CONFIGS = {
     # ... or with the N(0, I) prior and the root decoded without z (root_without_z): the root
     # from the past alone, the pose still from z. Run R1: the standing types' root error
     # 0.001-0.006 m/s, 36 of 36 validation checks within the bar and moving like the real clips;
-    # committed as ccnet_phase_lerp_scale_root, the generate command's model. 40 min sharing the cores.
-    "phase_lerp_scale_root": replace(PHASE_LERP, body_scale=(0.9, 1.25), root_without_z=True),
+    # committed as ccnet_generate, the generate command's model. 40 min sharing the cores.
+    "generate": replace(PHASE_LERP, body_scale=(0.9, 1.25), root_without_z=True),
     "paper": TrainConfig(size="paper", steps=200_000, batch_size=256, eval_every=2000,
                          checkpoint_every=2000),
     # The paper's network, loss and batch on one GPU for a time budget (tools/gpu_train.sh): width
@@ -198,8 +198,8 @@ TRAIN_CONFIGS = {
                              optimizer="adam", device="cuda", minutes=6.0, eval_every=1),
     # ... and a named deviation: the mean is x_t + the decoder's output (CCNetConfig.residual)
     # On a CPU (80 minutes, sharing 2 cores): the same with C = 96, skip 128 ("wide"), batches of 32
-    "next_frame_cpu": TrainConfig(size="wide", steps=10 ** 6, batch_size=32, lr=1e-3, lr_final=1e-5,
-                                  optimizer="adam", minutes=80.0, residual=True, eval_every=1),
+    "paper_next_frame": TrainConfig(size="wide", steps=10 ** 6, batch_size=32, lr=1e-3, lr_final=1e-5,
+                                    optimizer="adam", minutes=80.0, residual=True, eval_every=1),
     "paper_gpu_residual": TrainConfig(size="paper", steps=10 ** 6, batch_size=256, lr=1e-3, lr_final=1e-5,
                                       optimizer="adam", device="cuda", minutes=6.0, residual=True,
                                       eval_every=1),
