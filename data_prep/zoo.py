@@ -17,9 +17,10 @@ def committed_path(name: str) -> Path:
     return zoo.committed_path(name, ZOO_DIR)
 
 
-def load(name: str = "ccnet_default", retrain_if_missing: bool = True, prefer_committed: bool = True,
+def load(name: str = "ccnet_default", retrain_if_missing: bool = False, prefer_committed: bool = True,
          progress: bool = True):
-    """(model, normaliser, meta) of ``name``: committed, else cached, else trained (and cached)."""
+    """(model, normaliser, meta) of ``name``: committed, else cached; else trained (and cached) if
+    ``retrain_if_missing``, or :class:`mocapviz.zoo.ModelNotFound` naming the command that trains it."""
     def dataset():
         from data_prep.ccnet_dataset import DatasetConfig, build_dataset
         return build_dataset(DatasetConfig(), progress=progress)

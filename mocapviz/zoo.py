@@ -1,9 +1,10 @@
-"""Named trained models: a committed checkpoint, else a cached run, else train it when handed data.
+"""Named trained models: a committed checkpoint, else a cached run, else train it when asked to.
 
 ``load("ccnet_default", zoo_dir, cache_dir, dataset)`` returns ``(model, normaliser, meta)``. It
 looks for ``<zoo_dir>/<name>.safetensors`` (committed, so notebooks and CI never retrain), then
-for a cached run ``<cache_dir>/<name>-<hash>/`` (hash of the training config and the dataset),
-and otherwise trains that run (resuming if interrupted) with
+for a cached run ``<cache_dir>/<name>-<hash>/`` (hash of the training config and the dataset).
+With neither it raises :class:`ModelNotFound`, which names the command that trains the model;
+with ``retrain_if_missing=True`` it trains that run instead (resuming if interrupted) with
 :func:`mocapviz.training.trainer.train` and caches its best-by-validation model. The library
 knows no repository paths: :mod:`data_prep.zoo` passes the repository's ``models/zoo/`` and
 ``cache/zoo/`` and the dataset builder.
@@ -85,18 +86,53 @@ def committed_path(name: str, zoo_dir) -> Path:
     return Path(zoo_dir) / f"{canonical_name(name)}.safetensors"
 
 
-def load(name: str = "ccnet_default", zoo_dir=None, cache_dir=None, dataset=None, retrain_if_missing: bool = True,
+class ModelNotFound(FileNotFoundError, KeyError):
+    """A zoo name with no committed checkpoint (nor cached run): the message names the command that
+    trains it and the names that have a file. A KeyError too, as an unknown name always was."""
+
+    __str__ = FileNotFoundError.__str__
+
+
+def train_command(name: str) -> str:
+    """The command that trains the zoo model ``name`` (:data:`RECIPES`) and exports it to ``models/zoo``."""
+    key, options = RECIPES[name]
+    opts = "".join(f" --{k.replace('_', '-')} {v}" for k, v in options.items())
+    return (f"python -m data_prep train --config {key}{opts} --out cache/runs/{name} "
+            f"--export models/zoo/{name}.safetensors")
+
+
+def committed_names(zoo_dir) -> list[str]:
+    """The models with a checkpoint in ``zoo_dir`` (not the parts of split files)."""
+    if zoo_dir is None or not Path(zoo_dir).is_dir():
+        return []
+    return sorted(p.name.removesuffix(".safetensors") for p in Path(zoo_dir).glob("*.safetensors")
+                  if p.name.count(".") == 1)
+
+
+def load(name: str = "ccnet_default", zoo_dir=None, cache_dir=None, dataset=None, retrain_if_missing: bool = False,
          prefer_committed: bool = True, progress: bool = True):
-    """``dataset``: a CCNet dataset, or a function that builds one (called only when no committed
-    checkpoint is used); it keys the cached run and is what a missing run trains on."""
+    """``(model, normaliser, meta)`` of ``name``: the committed ``<zoo_dir>/<name>.safetensors``, else
+    a cached run in ``cache_dir``. With neither, :class:`ModelNotFound` says how to train it, unless
+    ``retrain_if_missing`` (and ``cache_dir`` and ``dataset``) are given: then the run is trained
+    (30-70 minutes for a CCNet on a CPU) and cached. ``dataset``: a CCNet dataset, or a function that
+    builds one (called only when no committed checkpoint is used); it keys the cached run and is
+    what a missing run trains on."""
     name = canonical_name(name)
+    committed = committed_path(name, zoo_dir) if zoo_dir is not None else None
+    if prefer_committed and committed is not None and committed.is_file():
+        return load_checkpoint(committed)
+    have = f"models with a file in {zoo_dir}: {', '.join(committed_names(zoo_dir)) or 'none'}"
     if name not in MODELS:
-        raise KeyError(f"unknown model {name!r}; known: {sorted(MODELS)}")
-    if prefer_committed and zoo_dir is not None and committed_path(name, zoo_dir).is_file():
-        return load_checkpoint(committed_path(name, zoo_dir))
+        raise ModelNotFound(f"unknown model {name!r}: no file {committed} and no training config of that name "
+                            f"(mocapviz.zoo.RECIPES); {have}")
+    missing = f"{name}: no committed checkpoint {committed}"
+    how = (f"train it with `{train_command(name)}`, or load it with retrain_if_missing=True and a cache_dir and "
+           f"dataset (data_prep.zoo.load passes both), which trains into the cache; {have}")
     if dataset is None or cache_dir is None:
-        raise FileNotFoundError(f"{name}: no committed checkpoint in {zoo_dir}; pass cache_dir and dataset "
-                                "(a dataset or a builder) to use or train a cached run")
+        raise ModelNotFound(f"{missing}; pass cache_dir and dataset (a dataset or a builder) to use a cached run, "
+                            f"or {how}")
+    if not retrain_if_missing and not any(Path(cache_dir).glob(f"{name}-*/model.safetensors")):
+        raise ModelNotFound(f"{missing} and no cached run in {cache_dir}: {how}")  # without building the data
     ds = dataset() if callable(dataset) else dataset
     cfg = MODELS[name]
     key = hashlib.sha256(f"{cfg.to_json()}\n{ds.meta['hash']}".encode()).hexdigest()[:12]
@@ -104,7 +140,7 @@ def load(name: str = "ccnet_default", zoo_dir=None, cache_dir=None, dataset=None
     model_file = run / "model.safetensors"
     if not model_file.is_file():
         if not retrain_if_missing:
-            raise FileNotFoundError(f"{name}: no committed checkpoint in {zoo_dir} and no cached run {run}")
+            raise ModelNotFound(f"{missing} and no cached run {run}: {how}")
         train(ds, cfg, run, resume=True, progress=progress)
         export_model(run, model_file)  # the best-by-validation model of the run
     return load_checkpoint(model_file)

@@ -27,3 +27,35 @@ def test_every_role_name_has_its_config():
     assert zoo.RECIPES["ccnet_generate"][0] == "generate" and zoo.RECIPES["ccnet_paper"][0] == "paper_next_frame"
     assert set(zoo.RENAMED.values()) <= set(zoo.MODELS) and not set(zoo.RENAMED) & set(zoo.MODELS)
     assert zoo.MODELS["erd_quick"].checkpoint_every == zoo.MODELS["erd_quick"].eval_every == 1200
+
+
+def test_a_missing_model_is_never_trained_by_surprise(tmp_path):
+    """No committed file: one error (a FileNotFoundError) naming the command that trains it and
+    the models that have a file; nothing is trained and no data is built."""
+    (tmp_path / "ccnet_default.safetensors").write_bytes(b"")
+    (tmp_path / "ccnet_generate.part1.safetensors").write_bytes(b"")  # a part is not a model
+    with pytest.raises(zoo.ModelNotFound) as e:
+        zoo.load("ccnet_generate", zoo_dir=tmp_path)
+    msg = str(e.value)
+    assert isinstance(e.value, FileNotFoundError)
+    assert "python -m data_prep train --config generate " in msg and "--export models/zoo/ccnet_generate.safetensors" in msg
+    assert "models with a file in" in msg and msg.endswith("ccnet_default")
+    # handed a cache and data, it looks for a cached run but trains none
+    with pytest.raises(zoo.ModelNotFound, match="no cached run.*--config generate "):
+        zoo.load("ccnet_generate", zoo_dir=tmp_path, cache_dir=tmp_path / "runs",
+                 dataset=lambda: pytest.fail("built the data"))
+    assert not (tmp_path / "runs").exists()
+    with pytest.raises(zoo.ModelNotFound, match="--config quick --model erd --steps 1200 --eval-every 1200"):
+        zoo.load("erd_quick", zoo_dir=tmp_path)
+    with pytest.raises(FileNotFoundError, match="unknown model 'ccnet_generat'.*ccnet_default"):
+        zoo.load("ccnet_generat", zoo_dir=tmp_path)  # a typo
+
+
+def test_repository_load_defaults_to_no_training(monkeypatch):
+    import inspect
+
+    assert inspect.signature(repo_zoo.load).parameters["retrain_if_missing"].default is False
+    assert inspect.signature(zoo.load).parameters["retrain_if_missing"].default is False
+    monkeypatch.setattr(zoo, "train", lambda *a, **k: pytest.fail("trained"))
+    with pytest.raises(zoo.ModelNotFound, match="--config paper_gpu "):
+        repo_zoo.load("ccnet_paper_gpu")
