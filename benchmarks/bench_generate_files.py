@@ -1,6 +1,6 @@
 """What the ``generate`` command makes of motion files: the pose-level quality of its output.
 
-    .venv/bin/python benchmarks/bench_generate_files.py [--model ccnet_phase_lerp_scale] [--seconds 60] [--sample]
+    .venv/bin/python benchmarks/bench_generate_files.py [--model ccnet_paper] [--seconds 60] [--sample]
         [--temperature 0.5] [--pace seed|network] [FILE.bvh:TYPE ...]
 
 Each file is continued exactly as ``mocapviz generate --seed FILE --type TYPE --seconds S --no-ik``

@@ -1,6 +1,6 @@
 """CCNet generation speed (incremental vs naive recompute) and pose-level quality, default model, this CPU.
 
-    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_phase_lerp_scale] [--frames 2000] [--repeats 5]
+    .venv/bin/python benchmarks/bench_generation.py [--model ccnet_paper] [--frames 2000] [--repeats 5]
         [--pace seed|network] [--temperature 0.5] [--noise-correlation 0]
 
 One character and 64 at once, frames per second of the autoregressive loop (network step plus

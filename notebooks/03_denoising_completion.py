@@ -83,7 +83,7 @@ side
 
 # %%
 committed = REPO_ROOT / "results" / "ccnet_table1_denoising.csv"
-if committed.is_file():   # the full-mode table (python -m data_prep apps-tables --model ccnet_wide)
+if committed.is_file():   # the full-mode table (python -m data_prep apps-tables)
     full = pd.read_csv(committed)
     print("committed results/ccnet_table1_denoising.csv (full mode):")
     print(full.pivot_table(index=["dataset", "noise_std"], columns="model", values="mean").round(3).to_string())

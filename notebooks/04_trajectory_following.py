@@ -88,7 +88,7 @@ table.round(2)
 
 # %%
 committed = REPO_ROOT / "results" / "ccnet_trajectory_following.csv"
-if committed.is_file():   # the full-mode table (python -m data_prep apps-tables --model ccnet_wide)
+if committed.is_file():   # the full-mode table (python -m data_prep apps-tables)
     print("committed results/ccnet_trajectory_following.csv (full mode):")
     print(pd.read_csv(committed).to_string(index=False))
 

@@ -12,7 +12,6 @@ from mocapviz.features.motion_types import one_hot
 from mocapviz.ik import foot_joints, remove_foot_sliding
 from mocapviz import metrics
 from mocapviz.metrics import foot_sliding
-from mocapviz.tasks.generation_quality import locomotion_seeds, real_reference
 from mocapviz.models.ccnet import CCNet
 from mocapviz.models.steppers import CCNetStepper, NumpyStepper
 from mocapviz.tasks.generate import Generator, at_speed, plan_speed
@@ -104,16 +103,6 @@ FROZEN_DEFAULT = pytest.mark.xfail(strict=True, reason="measured: ccnet_default 
 @pytest.mark.parametrize("name, clip", [
     pytest.param("ccnet_default", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=FROZEN_DEFAULT),
     pytest.param("ccnet_default", "91_02", marks=FROZEN_DEFAULT),
-    pytest.param("ccnet_phase", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=pytest.mark.xfail(
-        strict=True, reason="measured: ccnet_phase keeps the held-out subject's jog moving (never frozen), but "
-                            "nearly in place: 0.60 m/s over the last 5 s against its clip's 1.64")),
-    ("ccnet_phase", "91_02"),
-    pytest.param("ccnet_phase_lerp", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=pytest.mark.xfail(
-        strict=True, reason="measured: ccnet_phase_lerp keeps the held-out subject's jog from freezing, but it "
-                            "jogs nearly in place: 0.37 m/s over the last 5 s against its clip's 1.64")),
-    ("ccnet_phase_lerp", "91_02"),
-    ("ccnet_phase_lerp_scale", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
-    ("ccnet_phase_lerp_scale", "91_02"),
     ("ccnet_generate", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
     ("ccnet_generate", "91_02"),
 ])
@@ -136,21 +125,6 @@ def test_generated_motion_keeps_moving(ds, name, clip):
     assert 0.6 < m.root_positions[60:, 1].mean() / clip_root[:, 1].mean() < 1.3  # upright, not sinking
 
 
-HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
-    "measured: ccnet_phase_lerp learnt Bandai's root height, not the body's (90 % of dataset v4's frames are "
-    "Bandai's one body): taller bodies drop 0.1-0.2 m on the first generated frame (CMU 35_01 1.00 -> 0.81 m, "
-    "the held-out tr jog 0.94 -> 0.82), then bend their knees to reach the floor. Runs H1-H3 "
-    "(models/README.md: the height anchored to c^s, c^s normalised per body, both) were not better overall"))
-
-
-# every body at many sizes (body_scale): the scaled model reads a body's size, but not yet to the
-# centimetre at the seed's end (models/README.md, "Every body at many sizes")
-SCALED_HEIGHT_JUMP = pytest.mark.xfail(strict=True, reason=(
-    "measured: ccnet_phase_lerp_scale (trained on every body at 0.9-1.25x its size) keeps the held-out tr "
-    "jog's root height at the seed's end, but moves others on the first generated frame: the Bandai walk "
-    "0.864 -> 0.901 m, CMU 91 (the shortest body) 0.849 -> 0.953, CMU 35 (the tallest) 1.000 -> 0.924 (ccnet_phase_lerp: 0.81)"))
-
-
 # the root from the past alone (root_without_z) reads the tall bodies' height worse than S1 did
 ROOT_HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
     "measured: ccnet_generate (the root decoded without z) drops the tall bodies on the first "
@@ -159,18 +133,10 @@ ROOT_HEIGHT_DROP = pytest.mark.xfail(strict=True, reason=(
 
 
 @pytest.mark.parametrize("name, clip", [
-    ("ccnet_phase_lerp", "dataset-2_walk-turn-left_active_005"),   # Bandai's body
-    ("ccnet_phase_lerp", "91_02"),                                 # CMU 91: 0.81 m standing root height, Bandai's is 0.83
-    pytest.param("ccnet_phase_lerp", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=HEIGHT_DROP),
-    pytest.param("ccnet_phase_lerp", "35_01", marks=HEIGHT_DROP),   # CMU 35: 0.97 m
-    pytest.param("ccnet_phase_lerp_scale", "dataset-2_walk-turn-left_active_005", marks=SCALED_HEIGHT_JUMP),
-    pytest.param("ccnet_phase_lerp_scale", "91_02", marks=SCALED_HEIGHT_JUMP),
-    ("ccnet_phase_lerp_scale", "HDM_tr_jogLeftCircle4StepsRstart_014_120"),
-    pytest.param("ccnet_phase_lerp_scale", "35_01", marks=SCALED_HEIGHT_JUMP),
-    ("ccnet_generate", "dataset-2_walk-turn-left_active_005"),
-    ("ccnet_generate", "91_02"),
+    ("ccnet_generate", "dataset-2_walk-turn-left_active_005"),     # Bandai's body
+    ("ccnet_generate", "91_02"),                                   # CMU 91: 0.81 m standing root height, Bandai's is 0.83
     pytest.param("ccnet_generate", "HDM_tr_jogLeftCircle4StepsRstart_014_120", marks=ROOT_HEIGHT_DROP),
-    pytest.param("ccnet_generate", "35_01", marks=ROOT_HEIGHT_DROP),
+    pytest.param("ccnet_generate", "35_01", marks=ROOT_HEIGHT_DROP),  # CMU 35: 0.97 m
 ])
 def test_first_generated_frame_keeps_the_bodys_root_height(ds, clip, name):
     """The first generated frame continues the seed's root height (a real root moves millimetres
@@ -353,33 +319,6 @@ def test_correlated_draws_keep_unit_variance_with_the_asked_lag_one_correlation(
         assert abs(e.std() - 1.0) < 0.02 and abs(lag1 - rho) < 0.01
     with pytest.raises(ValueError, match="noise_correlation"):
         Generator(model, norm, noise_correlation=1.0)
-
-
-@pytest.fixture(scope="module")
-def real_walks(ds):
-    """(activity, jitter, root speed) of the dataset's real walks."""
-    return real_reference(ds, "walk")
-
-
-@pytest.mark.parametrize("name, shakes", [("ccnet_phase", True), ("ccnet_phase_lerp", False)])
-def test_sampled_motion_is_motion_not_noise(ds, real_walks, name, shakes):
-    """Sampled 10 s from a 1 s seed (CMU 91 walking, and the first held-out Bandai walk take),
-    seconds 5-10: ccnet_phase_lerp's poses change as much as the real walks' and jitter at most
-    3x as much (measured 1.2x and 1.6x); ccnet_phase, drawing an independent z every frame,
-    shakes at 7-9x, and the jitter measure says so."""
-    model, norm, _ = zoo.load(name, retrain_if_missing=False)
-    d = ds.with_vocabulary(model.cfg.n_types)
-    act, jit, _ = real_walks
-    for clip in ("91_02", d.clips.iloc[locomotion_seeds(d)[0]]["clip"]):
-        row, x, traj, skel, ti = seed_inputs(d, clip, 60)
-        r = d.clips.iloc[row]
-        gen = Generator(model, norm, sample=True).run(x, skel, one_hot([ti], model.cfg.n_types), 600, seed_traj=traj)
-        late = gen.motion(0, d.skeleton(row), (r.root_x, r.root_y, r.root_z), r.heading, ik=False)[-300:]
-        local = metrics.local_positions(late.positions(), late.skeleton)
-        activity, jitter = metrics.activity(local, 60) / act, metrics.jitter(local, 60) / jit
-        assert (jitter > 3) == shakes, (clip, jitter)
-        if not shakes:
-            assert 0.5 <= activity <= 2, (clip, activity)
 
 
 def test_nan_seed_controls_are_the_networks_own(ds, committed):

@@ -59,3 +59,19 @@ def test_repository_load_defaults_to_no_training(monkeypatch):
     monkeypatch.setattr(zoo, "train", lambda *a, **k: pytest.fail("trained"))
     with pytest.raises(zoo.ModelNotFound, match="--config paper_gpu "):
         repo_zoo.load("ccnet_paper_gpu")
+
+
+def _has_history_tag() -> bool:
+    import subprocess
+    return subprocess.run(["git", "-C", str(repo_zoo.REPO_ROOT), "rev-parse", "-q", "--verify",
+                           f"refs/tags/{repo_zoo.HISTORY_TAG}"], capture_output=True).returncode == 0
+
+
+def test_retired_models_left_the_zoo_and_still_load_from_the_tag():
+    for name in repo_zoo.RETIRED:
+        assert not repo_zoo.committed_path(name).exists() and not list(repo_zoo.ZOO_DIR.glob(f"{name}.*"))
+    if not _has_history_tag():
+        pytest.skip(f"no tag {repo_zoo.HISTORY_TAG} in this clone")
+    with pytest.warns(UserWarning, match="retired"):
+        model, norm, meta = repo_zoo.load("ccnet_wide")
+    assert model.cfg.channels == 96 and meta["step"] == 2800 and len(meta["parts"]) == 2
