@@ -8,7 +8,7 @@ single gait cycles found by DTW on the hip rotation curves (flexion and abductio
 thighs) against real references of forward and backward walking
 (:mod:`mocapviz.features.cycles`) -> cut-off, misshapen and half cycles rejected and listed
 (``ds.rejected``) -> each cycle as chi = [Theta, Gamma, Phi] (100 time-stamped frames) with
-the subject's beta. Meshes are not stored: mesh a cycle on demand with
+its body's beta. Meshes are not stored: mesh a cycle on demand with
 :meth:`mocapviz.datasets.body4d.Body4DDataset.mesh`.
 
 Bandai is re-based onto a T-pose rest with world-aligned joint frames first (as for CCNet,
@@ -18,9 +18,11 @@ mean what they mean for CMU and HDM05. Its ``walk-left``/``walk-right`` takes (t
 faces where it goes (:func:`heading_offset`, notebook 10), so they are typed ``walk``. The
 shared data holds no side-step clip, hence no side-step reference.
 
-Split and scales: :mod:`data_prep.body4d_splits` (held-out source HDM05, held-out subjects CMU
-35 and 09, held-out Bandai takes; Gamma's scale from training cycles only, stored in
-``meta['gamma_scale']``).
+Bodies, split and scales: :mod:`data_prep.body4d_splits` (Bandai takes spread over drawn
+bodies; held-out subjects HDM05 tr, CMU 35 and 09; held-out Bandai takes on their own body and
+on held-out bodies; validation takes; Gamma's scale from training cycles only, stored in
+``meta['gamma_scale']``). A cycle's ``subject`` is who performed it, its ``body`` whose shape
+(beta) it is on.
 
 ``python -m data_prep build body4d [--quick]`` or ``python -m data_prep.body4d_dataset``.
 Cached under ``cache/body4d/`` keyed by the config, the data files, the code and anny's version.
@@ -47,7 +49,7 @@ from data_prep.catalog import CACHE_DIR, build_catalog, cache_key, load_motion
 from data_prep.sources import find_data_dir
 from mocapviz.datasets.body4d import Body4DDataset
 
-DATASET_VERSION = 2  # 2: Bandai, hip flexion + abduction, rejection, source split, train-only scales
+DATASET_VERSION = 3  # 3: Bandai takes on drawn bodies, held-out bodies, validation takes
 # The cyclic locomotion clips (the catalog's motion_type) and the type names used in the dataset.
 MOTION_TYPES = {"walk": "walk", "run": "run", "jogLeftCircle4StepsRstart": "jog",
                 "sneak2StepsLStart": "sneak", "walk-turn-left": "turn_left", "walk-turn-right": "turn_right",
@@ -60,7 +62,7 @@ REFERENCE_CLIP = "07_01"
 REFERENCE_FRAMES = (134, 261)
 REFERENCES = {"walk": (REFERENCE_CLIP, *REFERENCE_FRAMES),
               "walk_back": ("dataset-1_walk-back_active_001", 79, 114)}
-QUICK_SUBJECTS = ("cmu07", "cmu09", "cmu35", "bd", "mm", "bandai1", "bandai2")
+QUICK_SUBJECTS = ("cmu07", "cmu09", "cmu35", "bd", "tr", "bandai1", "bandai2")
 
 
 @dataclass(frozen=True)
@@ -75,6 +77,7 @@ class Body4DConfig:
     test_sources: tuple = splits.TEST_SOURCES
     test_subjects: tuple = splits.TEST_SUBJECTS
     takes_share: float = splits.TAKES_SHARE  # Bandai takes held out per content
+    val_share: float = splits.VAL_SHARE  # Bandai takes kept for validation per content
     seed: int = 0
 
     def key(self) -> str:
@@ -206,51 +209,56 @@ def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:
     subjects["gender_recorded"] = [s in splits.SUBJECT_GENDER for s in subjects["subject"]]
 
     # drawn from the whole catalog, so a config's subset (quick) does not change which takes test
-    test_takes = splits.held_out_takes(build_catalog(root, sources=config.sources), config.takes_share, config.seed)
+    whole = build_catalog(root, sources=config.sources)
+    test_takes = splits.held_out_takes(whole, config.takes_share, config.seed)
+    val_takes = splits.validation_takes(whole, config.val_share, config.seed, config.takes_share)
 
     def held_out(source, subject, clip=""):
         return splits.held_out_set(source, subject, clip, config.test_sources, config.test_subjects, test_takes)
 
     # a subject is 'test' when none of its cycles trains (Bandai's bodies also have test takes)
     subjects["split"] = ["test" if held_out(r.source, r.subject) else "train" for r in subjects.itertuples()]
+    train_bodies = subjects.loc[subjects["split"] == "train", "subject"].tolist()
+    test_bodies = [s for s in config.test_subjects if s in betas]
     kept = chi_joint_indices(body.joint_names)
     targets = {s: body.rest_skeleton(betas[s]) for s in betas}
     chis, rows, rejected, clip_rows = [], [], [], []
     for r in tqdm(list(cat.itertuples(index=False)), desc="body4d clips", disable=not progress):
         src = load_clip(r._asdict(), root)
-        test_set = held_out(r.source, r.subject, r.clip)
         info = dict(subject=r.subject, source=r.source, clip=r.clip, motion_type=r.motion_type,
-                    type=MOTION_TYPES[r.motion_type], style=r.style, split="test" if test_set else "train",
-                    test_set=test_set)
-        variants = [(src, False)] + ([(src.mirrored(), True)] if config.mirror else [])
-        for motion, mirrored in variants:
-            anny_motion = _retarget_quietly(motion, targets[r.subject])
-            if not mirrored:
-                clip_rows.append(dict(retarget_report(motion, anny_motion), subject=r.subject, type=info["type"],
-                                      source=r.source, heading_offset_deg=heading_offset(src)))
-            cycles, bad = find_cycles(motion, refs, threshold=config.threshold)
-            for cyc, reason in [(c, "") for c in cycles] + ([] if mirrored else bad):
-                row = dict(info, start=cyc.start, end=cyc.end, side=cyc.side, kind=cyc.kind,
-                           dtw_distance=cyc.distance, correlation=cyc.correlation,
-                           duration_s=cyc.duration(motion.fps), travel_m=travel(motion, cyc), mirrored=mirrored)
-                if reason:
-                    rejected.append(dict(row, reason=reason))
-                    continue
-                rot, rootp, times = resample_uniform(anny_motion, cyc.start, cyc.end, config.n_frames)
-                chis.append(encode(rot, rootp, times, kept, np.ones(3)))
-                _, _, yaw, root0 = canonicalise(rot, rootp)
-                rows.append(dict(row, yaw=yaw, root0_y=float(root0[1])))
+                    type=MOTION_TYPES[r.motion_type], style=r.style)
+        for body_name, split, test_set in _placements(r, held_out(r.source, r.subject, r.clip), val_takes,
+                                                      train_bodies, test_bodies, config.seed):
+            variants = [(src, False)] + ([(src.mirrored(), True)] if config.mirror and split == "train" else [])
+            for motion, mirrored in variants:
+                anny_motion = _retarget_quietly(motion, targets[body_name])
+                if not mirrored:
+                    clip_rows.append(dict(retarget_report(motion, anny_motion), subject=r.subject, body=body_name,
+                                          type=info["type"], source=r.source, heading_offset_deg=heading_offset(src)))
+                cycles, bad = find_cycles(motion, refs, threshold=config.threshold)
+                for cyc, reason in [(c, "") for c in cycles] + ([] if mirrored else bad):
+                    row = dict(info, body=body_name, split=split, test_set=test_set, start=cyc.start, end=cyc.end,
+                               side=cyc.side, kind=cyc.kind, dtw_distance=cyc.distance, correlation=cyc.correlation,
+                               duration_s=cyc.duration(motion.fps), travel_m=travel(motion, cyc), mirrored=mirrored)
+                    if reason:
+                        rejected.append(dict(row, reason=reason))
+                        continue
+                    rot, rootp, times = resample_uniform(anny_motion, cyc.start, cyc.end, config.n_frames)
+                    chis.append(encode(rot, rootp, times, kept, np.ones(3)))
+                    _, _, yaw, root0 = canonicalise(rot, rootp)
+                    rows.append(dict(row, yaw=yaw, root0_y=float(root0[1])))
     n_theta = 6 * len(kept)
     chi = np.stack(chis).astype(np.float32) if chis else np.zeros((0, config.n_frames, n_theta + 4), np.float32)
     cycles = pd.DataFrame(rows)
     # half cycles: a step taken for a stride, judged against the subject's cycles of that type
-    half = half_cycles(cycles["travel_m"], cycles["subject"] + "/" + cycles["type"]) if rows else np.zeros(0, bool)
+    half = half_cycles(cycles["travel_m"], cycles["subject"] + "/" + cycles["body"] + "/" + cycles["type"]) \
+        if rows else np.zeros(0, bool)
     rejected = pd.concat([pd.DataFrame(rejected), cycles[half].drop(columns=["yaw", "root0_y"]).assign(reason="half")],
                          ignore_index=True)
     chi, cycles = chi[~half], cycles[~half].reset_index(drop=True)
     scale = splits.gamma_scale(chi[..., n_theta:n_theta + 3], (cycles["split"] == "train").values) if rows else np.ones(3)
     chi[..., n_theta:n_theta + 3] /= scale
-    beta = np.stack([betas[s] for s in cycles["subject"]]).astype(np.float32) if len(cycles) else \
+    beta = np.stack([betas[s] for s in cycles["body"]]).astype(np.float32) if len(cycles) else \
         np.zeros((0, len(BETA_LABELS)), np.float32)
     meta = dict(version=DATASET_VERSION, config=json.loads(config.key()), data_dir=str(root),
                 joint_names=list(body.joint_names), chi_joints=[body.joint_names[k] for k in kept],
@@ -261,9 +269,20 @@ def _build(config: Body4DConfig, root: Path, progress: bool) -> Body4DDataset:
                 reference=dict(clip=REFERENCE_CLIP, frames=list(REFERENCE_FRAMES)),
                 references={k: list(v) for k, v in REFERENCES.items()},
                 test_sources=list(config.test_sources), test_subjects=list(config.test_subjects),
-                test_takes=sorted(test_takes),
+                test_takes=sorted(test_takes), validation_takes=sorted(val_takes),
+                train_bodies=train_bodies, test_bodies=test_bodies,
                 build_seconds=round(time.perf_counter() - t0, 1))
     return Body4DDataset(chi, beta, cycles, subjects, pd.DataFrame(clip_rows), meta, rejected)
+
+
+def _placements(row, test_set: str, val_takes, train_bodies, test_bodies, seed: int) -> list:
+    """(body, split, test_set) of each copy of a clip (see :mod:`data_prep.body4d_splits`)."""
+    if row.source not in splits.SPREAD_SOURCES:
+        return [(row.subject, "test" if test_set else "train", test_set)]
+    if test_set:  # a held-out take: on its own body, and on a held-out one
+        out = [(row.subject, "test", test_set)]
+        return out + ([(splits.draw_body(row.clip, test_bodies, seed), "test", "held_out_bodies")] if test_bodies else [])
+    return [(splits.draw_body(row.clip, train_bodies, seed), "val" if row.clip in val_takes else "train", "")]
 
 
 def summary(ds: Body4DDataset) -> str:

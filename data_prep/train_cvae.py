@@ -8,7 +8,7 @@ reconstruction table (multi-frame 4D motion paper §3.3, §4.2-4.4).
     python -m data_prep train-cvae --table                       # results/cvae4d_reconstruction.csv
 
 Runs go to ``cache/cvae4d/<name>/`` (``model.safetensors``, ``losses.csv``); ``--export`` also
-writes ``models/zoo/<name>.safetensors`` (float16 weights, 2.6 MB) and ``<name>_losses.csv``.
+writes ``models/zoo/<name>.safetensors`` (float16 weights, 13 MB) and ``<name>_losses.csv``.
 The reconstruction table evaluates PCA and the two committed checkpoints on every test set; its
 ``checkpoint`` column is the sha256 (16 hex digits) of the file each row evaluated, so a test can
 tell that the table is current. The ablation runs go to ``cache/runs/abl_<name>/`` and are
@@ -55,6 +55,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--latent", type=int)
     p.add_argument("--kl", type=float, help="KL weight (default 0.01)")
     p.add_argument("--vertex-subset", type=int, help="phase 2: vertices in the loss (0 = all)")
+    p.add_argument("--minutes", type=float, help="wall-clock budget (0: train every epoch)")
+    p.add_argument("--seed", type=int, help="training seed (default 0)")
     p.add_argument("--dataset", choices=("full", "quick"), default="full")
     p.add_argument("--data-dir")
     p.add_argument("--export", action="store_true", help="also write models/zoo/<name>.safetensors (+ losses)")
@@ -79,9 +81,9 @@ def _train_one(ds, name: str, cfg, init, export: bool, run: Path | None = None, 
     save_cvae(run / "model.safetensors", model, meta)
     write_log(run / "losses.csv", rows)
     last = rows[-1]
-    held = {k: v for k, v in last.items() if k.startswith("held_")}
+    val = {k: v for k, v in last.items() if k.startswith("val_") or k == "kept_epoch"}
     print(f"{name}: phase {cfg.phase}, {cfg.epochs} epochs in {last['seconds']:.0f} s; last epoch "
-          f"{ {k: last[k] for k in last if k in ('pose', 'trans', 'spatial', 'time', 'kl')} }; held-out {held}")
+          f"{ {k: last[k] for k in last if k in ('pose', 'trans', 'spatial', 'time', 'kl')} }; validation {val}")
     if export:
         dest = save_cvae(ZOO_DIR / f"{name}.safetensors", model, meta, half=True)
         shutil.copyfile(run / "losses.csv", ZOO_DIR / f"{name}_losses.csv")
@@ -90,7 +92,8 @@ def _train_one(ds, name: str, cfg, init, export: bool, run: Path | None = None, 
 
 
 def _command(name: str, cfg) -> str:
-    return f"--phase {cfg.phase} --name {name} --epochs {cfg.epochs} --latent {cfg.latent} --kl {cfg.kl_weight}"
+    return (f"--phase {cfg.phase} --name {name} --epochs {cfg.epochs} --latent {cfg.latent} --kl {cfg.kl_weight} "
+            f"--minutes {cfg.minutes:g} --seed {cfg.seed}")
 
 
 def run(a: argparse.Namespace) -> int:
@@ -102,7 +105,8 @@ def run(a: argparse.Namespace) -> int:
     if a.ablations:
         return run_ablations(a, ds)
     cfg = with_overrides(CVAE_CONFIGS[a.config or f"phase{a.phase}"], phase=a.phase, epochs=a.epochs,
-                         latent=a.latent, kl_weight=a.kl, vertex_subset=a.vertex_subset)
+                         latent=a.latent, kl_weight=a.kl, vertex_subset=a.vertex_subset, minutes=a.minutes,
+                         seed=a.seed)
     init = None
     if a.phase == 2:
         from mocapviz.zoo import find_checkpoint

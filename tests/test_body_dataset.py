@@ -35,11 +35,24 @@ def test_layout_ranges_and_split(built):
     np.testing.assert_array_equal(gamma[:, 0], 0)
     assert set(ds.cycles.loc[ds.cycles.subject == "cmu09", "split"]) == {"test"}
     assert set(ds.cycles.loc[ds.cycles.subject == "cmu07", "split"]) == {"train"}
-    assert set(ds.cycles.loc[ds.cycles.subject == "bd", "test_set"]) <= {"held_out_source"}
+    assert set(ds.cycles.loc[ds.cycles.subject == "bd", "split"]) == {"train"}  # HDM05's bodies train
     assert set(ds.cycles.loc[ds.cycles.subject == "cmu09", "test_set"]) == {"held_out_subjects"}
     bandai = ds.cycles[ds.cycles.source == "bandai"]
-    assert len(bandai) and set(bandai["test_set"]) <= {"", "held_out_takes"}
+    assert len(bandai) and set(bandai["test_set"]) <= {"", "held_out_takes", "held_out_bodies"}
     np.testing.assert_array_equal(bandai["clip"].isin(ds.meta["test_takes"]), bandai["split"] == "test")
+    np.testing.assert_array_equal(bandai["clip"].isin(ds.meta["validation_takes"]), bandai["split"] == "val")
+    # bodies: a training take on a training body, a held-out take on Bandai's body or a held-out one
+    train_bodies, test_bodies = set(ds.meta["train_bodies"]), set(ds.meta["test_bodies"])
+    assert set(bandai.loc[bandai.split != "test", "body"]) <= train_bodies
+    assert set(bandai.loc[bandai.test_set == "held_out_takes", "body"]) == {"bandai1"}
+    assert set(bandai.loc[bandai.test_set == "held_out_bodies", "body"]) <= test_bodies == {"cmu09"}
+    assert not train_bodies & test_bodies
+    other = ds.cycles[ds.cycles.source != "bandai"]
+    assert (other["body"] == other["subject"]).all()
+    # each cycle carries its body's beta
+    fitted = ds.subjects.set_index("subject")
+    for r, b in zip(ds.cycles.itertuples(), ds.beta):
+        np.testing.assert_allclose(b, fitted.loc[r.body, ds.meta["beta_labels"]].to_numpy(float), atol=1e-5)
     assert (ds.subjects.err_after_cm < ds.subjects.err_before_cm).all()
     assert (ds.subjects.set_index("subject").loc[["bd"], "gender"] == 0).all()  # HDM05's actors are men
     assert ds.meta["chi_joints"][0] == "Hips" and len(ds.meta["chi_joints"]) == 21
@@ -48,10 +61,11 @@ def test_layout_ranges_and_split(built):
 def test_mirror_augmentation_swaps_the_cycle_sides(built):
     _, ds, _ = built
     c = ds.cycles
-    orig = {(r.clip, r.start, r.end, r.side) for r in c[~c.mirrored].itertuples()}
+    train = c[c.split == "train"]  # only training cycles are augmented
+    orig = {(r.clip, r.start, r.end, r.side) for r in train[~train.mirrored].itertuples()}
     mirr = {(r.clip, r.start, r.end, {"L": "R", "R": "L"}[r.side]) for r in c[c.mirrored].itertuples()}
     assert orig and orig == mirr
-    assert ds.counts().loc["total", "total"] == len(orig)  # counts exclude the augmentation
+    assert ds.counts().loc["total", "total"] == int((~c.mirrored).sum())  # counts exclude the augmentation
 
 
 def test_cache_round_trip(built, data_dir):
@@ -103,7 +117,7 @@ def test_mirrored_copies_stay_out_of_test_metrics(built):
     test = ds.indices("test")
     assert len(test) and not ds.cycles["mirrored"].values[test].any()
     assert set(ds.cycles["split"].values[test]) == {"test"}
-    assert len(ds.indices("test", mirrored=True)) == 2 * len(test)
+    assert len(ds.indices("test", mirrored=True)) == len(test)  # held-out cycles are not mirrored
     by_set = ds.indices("test", test_set="held_out_subjects")
     assert set(ds.cycles["subject"].values[by_set]) == {"cmu09"}
 

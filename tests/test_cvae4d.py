@@ -14,9 +14,11 @@ from mocapviz.training.cvae4d import (
     CVAETrainConfig,
     load_cvae,
     save_cvae,
+    body_weights,
     split_indices,
     task_losses,
     train,
+    validation_indices,
     with_overrides,
 )
 
@@ -101,7 +103,7 @@ def test_both_phases_reduce_their_losses(ds):
     model, rows = train(ds, cfg, progress=False)
     assert rows[-1]["pose"] < 0.7 * rows[0]["pose"] and rows[-1]["trans"] < 0.7 * rows[0]["trans"]
     assert sum(rows[-1][f"w_{t}"] for t in ("pose", "trans", "time")) == pytest.approx(3.0, rel=1e-4)
-    assert any(r.get("held_pose") for r in rows)  # the held-out losses were logged (last epoch)
+    assert any(r.get("val_pose") for r in rows)  # the validation losses were logged (last epoch)
     n_train = int((ds.cycles.split == "train").sum())
     cfg2 = CVAETrainConfig(phase=2, epochs=4, batch_size=-(-n_train // 2), lr=1e-3, latent=8, hidden=(16, 16),
                            vertex_subset=64, eval_every=1000)
@@ -119,7 +121,7 @@ def test_test_sets_follow_the_test_set_column_without_mirrored_copies():
 
     cycles = pd.DataFrame(dict(
         split=["train", "train", "test", "test", "test", "test", "test"],
-        test_set=["", "", "held_out_source", "held_out_subjects", "held_out_source", "held_out_takes",
+        test_set=["", "", "held_out_bodies", "held_out_subjects", "held_out_bodies", "held_out_takes",
                   "held_out_subjects"],
         mirrored=[False, True, False, False, True, False, False]))
     ds = Body4DDataset(np.zeros((7, 2, 10), np.float32), np.zeros((7, 6), np.float32), cycles,
@@ -127,9 +129,40 @@ def test_test_sets_follow_the_test_set_column_without_mirrored_copies():
     train_idx, held = split_indices(ds)
     assert list(train_idx) == [0, 1] and list(held) == [2, 3, 5, 6]  # mirrored training copies train
     sets = test_sets(ds)
-    assert list(sets) == ["held_out_source", "held_out_subjects", "held_out_takes"]
-    assert list(sets["held_out_source"]) == [2]  # 4 is a mirrored copy
+    assert list(sets) == ["held_out_bodies", "held_out_subjects", "held_out_takes"]
+    assert list(sets["held_out_bodies"]) == [2]  # 4 is a mirrored copy
     assert list(sets["held_out_subjects"]) == [3, 6] and list(sets["held_out_takes"]) == [5]
+
+
+def test_validation_is_its_own_split_and_bodies_draw_alike():
+    from mocapviz.datasets.body4d import Body4DDataset
+
+    cycles = pd.DataFrame(dict(split=["train", "train", "train", "val", "test", "train"],
+                               test_set=["", "", "", "", "held_out_takes", ""],
+                               body=["a", "a", "a", "b", "a", "b"],
+                               mirrored=[False, False, False, False, False, True]))
+    ds = Body4DDataset(np.zeros((6, 2, 10), np.float32), np.zeros((6, 6), np.float32), cycles,
+                       pd.DataFrame(), pd.DataFrame())
+    train_idx, held = split_indices(ds)
+    assert list(train_idx) == [0, 1, 2, 5] and list(held) == [4]  # validation is neither
+    assert list(validation_indices(ds)) == [3]
+    w = body_weights(ds, train_idx)
+    np.testing.assert_allclose(w, [1 / 6, 1 / 6, 1 / 6, 1 / 2])  # body a: 3 cycles share one half
+    no_val = Body4DDataset(ds.chi, ds.beta, cycles.assign(split=cycles.split.replace("val", "train")),
+                           pd.DataFrame(), pd.DataFrame())
+    assert list(validation_indices(no_val)) == [4]  # older builds validate on held-out cycles
+
+
+def test_keep_best_returns_the_best_validation_weights(ds):
+    """A learning rate that diverges: the kept weights are those of the best evaluation, not the last."""
+    cfg = CVAETrainConfig(phase=1, epochs=12, latent=4, hidden=(16, 16), eval_every=1, lr=1e-3)
+    _, rows = train(ds, cfg, progress=False)
+    kept = rows[-1]["kept_epoch"]
+    assert min(rows, key=lambda r: r["val_score"])["epoch"] == kept
+    model_last, _ = train(ds, CVAETrainConfig(**{**cfg.__dict__, "keep_best": False}), progress=False)
+    model_best, _ = train(ds, cfg, progress=False)
+    if kept != rows[-1]["epoch"]:
+        assert not torch.equal(model_last.shared_layer, model_best.shared_layer)
 
 
 def test_on_scale_reexpresses_translations():

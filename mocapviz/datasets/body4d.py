@@ -29,9 +29,10 @@ class Body4DDataset:
     segments the segmentation rejected (with a ``reason``: edge, shape, duration, half) in
     ``rejected``.
 
-    Columns of ``cycles`` a model uses: ``split`` ('train'/'test'), ``test_set``
-    ('held_out_source', 'held_out_subjects', '' for training), ``mirrored`` (an augmentation
-    copy: never in a metric, see :meth:`indices`), ``source``, ``type``, ``subject``.
+    Columns of ``cycles`` a model uses: ``split`` ('train'/'val'/'test'), ``test_set``
+    ('held_out_subjects', 'held_out_takes', 'held_out_bodies', '' for training and validation),
+    ``mirrored`` (an augmentation copy: never in a metric, see :meth:`indices`), ``source``,
+    ``type``, ``subject`` (the performer) and ``body`` (whose beta the cycle is on).
     """
 
     chi: np.ndarray
@@ -62,7 +63,7 @@ class Body4DDataset:
         return mesh_chi(body, self.beta[i], self.chi[i], self.gamma_scale, root0)
 
     def indices(self, split: str | None = None, test_set: str | None = None, mirrored: bool = False) -> np.ndarray:
-        """Row indices of the cycles of ``split`` ('train'/'test'; None: all) and ``test_set``
+        """Row indices of the cycles of ``split`` ('train'/'val'/'test'; None: all) and ``test_set``
         (None: all), without mirrored copies unless ``mirrored``: what a test metric averages."""
         c = self.cycles
         keep = np.ones(len(c), dtype=bool) if mirrored else ~c["mirrored"].astype(bool).values

@@ -30,10 +30,10 @@ class CVAE4DConfig:
     n_chi: int = 130          # numbers per frame: 6 x kept joints + 3 (Gamma) + 1 (Phi)
     n_beta: int = 6           # anny's phenotypes (the paper: SMPL's 8 betas)
     latent: int = 64
-    # encoder widths; the decoder uses them reversed. 48 at the chi end: the two chi-wide layers
-    # (2 x 48 x 13,000 weights) hold 97 % of the parameters; float16 storage makes a
-    # checkpoint 2.6 MB, under the repository's 3 MiB per file (64 made it 3.3 MB)
-    hidden: tuple[int, ...] = (48, 128)
+    # encoder widths; the decoder uses them reversed. 256 at the chi end, well above latent +
+    # beta (70), so no layer is narrower than the code it carries (48 was: Fig. 3 went flat);
+    # the two chi-wide layers (2 x 256 x 13,000 weights) make a float16 checkpoint 13 MB
+    hidden: tuple[int, ...] = (256, 256)
 
     def __post_init__(self):
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))

@@ -12,9 +12,10 @@ the tasks change) and the KL term (:func:`mocapviz.models.cvae4d.kl_divergence`)
 weight ``kl_weight`` (0.01). Each epoch's log row holds the mean task losses, weights (``w_``),
 weighted gradient norms (``G_``) and rates (``r_``) over its steps and ``w_ratio_max``, the largest
 ratio of two weights at any of its steps. Training uses the cycles whose ``split`` is ``"train"`` (mirrored
-copies included); every ``eval_every`` epochs the same losses (z = mu) are logged on the held-out
-cycles (other splits, without mirrored copies). There is no model selection: the last epoch is
-the model.
+copies included), drawn so that every body is equally likely (``balance_bodies``); every
+``eval_every`` epochs the same losses (z = mu) are logged on the validation cycles (``split``
+"val"; :func:`validation_indices`), and the weights of the best validation evaluation are the
+model (``keep_best``). The test cycles are never seen in training.
 
 Why not :mod:`.trainer`: that loop draws CCNet windows, owns a feature normaliser, and minimises
 one total loss; here a step is per whole cycle, the loss is a set of GradNorm-weighted tasks that
@@ -60,13 +61,16 @@ class CVAETrainConfig:
     lr: float = 1e-3
     kl_weight: float = 0.01
     latent: int = 64
-    hidden: tuple[int, ...] = CVAE4DConfig.hidden  # (48, 128): see there
+    hidden: tuple[int, ...] = CVAE4DConfig.hidden  # (256, 256): see there
     alpha: float = DEFAULT_ALPHA            # GradNorm asymmetry
     gradnorm_lr: float = DEFAULT_LR
     vertex_subset: int = 0                  # phase 2: 0 = every vertex, else a fixed subset of that size
-    eval_every: int = 50                    # epochs between held-out evaluations
+    eval_every: int = 50                    # epochs between validation evaluations
     seed: int = 0
     threads: int = 1
+    balance_bodies: bool = True             # draw each epoch's cycles with every body equally likely
+    minutes: float = 0.0                    # wall-clock budget (0: none); stops after the epoch that passes it
+    keep_best: bool = True                  # return the weights of the best validation evaluation
 
     def __post_init__(self):
         if self.phase not in TASKS:
@@ -82,29 +86,46 @@ class CVAETrainConfig:
 
 
 # The paper trains 5000 epochs (phase 1) and 200 (phase 2) on 13 121 cycles with a GPU. Ours
-# train on the full body4d dataset (4,065 cycles, 3,656 of them training) on one CPU thread, in
-# about 13 CPU minutes for both phases (measured: a phase-1 epoch, 15 steps of 256 cycles, costs
-# ~1.3 CPU s; a phase-2 step of 16 cycles on a 1024-vertex subset ~0.16 CPU s, an epoch of 229
-# steps ~37 s): phase 1 400 epochs (~9 CPU min, 6,000 steps), phase 2 6 epochs (~4 CPU min,
-# 1,374 steps). The machine's two cores were shared with other training, hence so short.
-# The subset keeps phase 2 cheap; evaluation always uses every vertex.
-# "paper_*": the paper's schedule with wider layers (512, 256), for a GPU (checkpoints over 3 MiB).
+# train on the full body4d dataset (3,482 training cycles on 15 bodies) on one CPU thread within
+# a wall-clock budget (``minutes``), keeping the best validation evaluation: a phase-1 epoch
+# (14 steps of 256) costs ~4 s at widths (256, 256), a phase-2 epoch (218 steps of 16 on a
+# 1024-vertex subset) ~45 s. The subset keeps phase 2 cheap; evaluation always uses every vertex.
+# "paper_*": the paper's epochs, for a GPU.
 CVAE_CONFIGS = {
-    "phase1": CVAETrainConfig(phase=1, epochs=400, batch_size=256, lr=1e-3, eval_every=50),
-    "phase2": CVAETrainConfig(phase=2, epochs=6, batch_size=16, lr=1e-4, vertex_subset=1024, eval_every=2),
-    "paper_phase1": CVAETrainConfig(phase=1, epochs=5000, batch_size=256, lr=1e-3, hidden=(512, 256),
-                                    eval_every=250),
-    "paper_phase2": CVAETrainConfig(phase=2, epochs=200, batch_size=16, lr=1e-4, hidden=(512, 256),
-                                    eval_every=10),
+    "phase1": CVAETrainConfig(phase=1, epochs=5000, batch_size=256, lr=1e-3, eval_every=25, minutes=40),
+    "phase2": CVAETrainConfig(phase=2, epochs=200, batch_size=16, lr=1e-4, vertex_subset=1024, eval_every=2,
+                              minutes=25),
+    "paper_phase1": CVAETrainConfig(phase=1, epochs=5000, batch_size=256, lr=1e-3, eval_every=250),
+    "paper_phase2": CVAETrainConfig(phase=2, epochs=200, batch_size=16, lr=1e-4, eval_every=10),
 }
 
 
 # ---------------------------------------------------------------------------------- data
 def split_indices(ds) -> tuple[np.ndarray, np.ndarray]:
-    """(training cycles: split "train", mirrored included; held-out: other splits, no mirrored copies)."""
+    """(training cycles: split "train", mirrored included; held-out: split "test", no mirrored copies)."""
     split = ds.cycles["split"].to_numpy()
-    mirrored = ds.cycles["mirrored"].to_numpy().astype(bool) if "mirrored" in ds.cycles else np.zeros(len(ds), bool)
-    return np.flatnonzero(split == "train"), np.flatnonzero((split != "train") & ~mirrored)
+    return np.flatnonzero(split == "train"), np.flatnonzero((split == "test") & ~_mirrored(ds))
+
+
+def validation_indices(ds) -> np.ndarray:
+    """Validation cycles (split "val", no mirrored copies): what every training choice is made on.
+    A dataset without them (older builds) validates on its held-out cycles."""
+    idx = np.flatnonzero((ds.cycles["split"].to_numpy() == "val") & ~_mirrored(ds))
+    return idx if len(idx) else split_indices(ds)[1]
+
+
+def _mirrored(ds) -> np.ndarray:
+    return ds.cycles["mirrored"].to_numpy().astype(bool) if "mirrored" in ds.cycles else np.zeros(len(ds), bool)
+
+
+def body_weights(ds, idx: np.ndarray) -> np.ndarray:
+    """Sampling probabilities of cycles ``idx`` that give every body (``body`` column, else
+    ``subject``) the same share of the draws."""
+    col = "body" if "body" in ds.cycles else "subject"
+    bodies = ds.cycles[col].to_numpy()[idx]
+    _, inverse, counts = np.unique(bodies, return_inverse=True, return_counts=True)
+    w = 1.0 / counts[inverse]
+    return w / w.sum()
 
 
 def dataset_meta(ds) -> dict:
@@ -182,7 +203,8 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
     """Train on ``ds`` (a :class:`mocapviz.datasets.body4d.Body4DDataset`); phase 2 starts from
     ``init`` (a phase-1 model). Returns (model, log rows: one per epoch)."""
     torch.set_num_threads(cfg.threads)
-    train_idx, held_idx = split_indices(ds)
+    train_idx, _ = split_indices(ds)
+    val_idx = validation_indices(ds)
     if len(train_idx) == 0:
         raise ValueError("the dataset has no training cycles (split == 'train')")
     torch.manual_seed(cfg.seed)
@@ -201,9 +223,12 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
     model.train()
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
     gradnorm = GradNorm(TASKS[cfg.phase], alpha=cfg.alpha, lr=cfg.gradnorm_lr, keep_history=False)
+    weights = body_weights(ds, train_idx) if cfg.balance_bodies else None
+    best = _Best()
     rows, t0 = [], time.perf_counter()
     for epoch in tqdm(range(1, cfg.epochs + 1), desc=f"cvae4d phase {cfg.phase}", disable=not progress):
-        order = np.random.default_rng([cfg.seed, epoch]).permutation(train_idx)
+        rng = np.random.default_rng([cfg.seed, epoch])
+        order = rng.permutation(train_idx) if weights is None else rng.choice(train_idx, len(train_idx), p=weights)
         sums, n, w_ratio = {}, 0, 1.0
         for i in range(0, len(order), cfg.batch_size):
             b = order[i:i + cfg.batch_size]
@@ -221,14 +246,38 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
             n += len(b)
             w = [info[f"w_{t}"] for t in TASKS[cfg.phase]]
             w_ratio = max(w_ratio, max(w) / min(w))
+        seconds = time.perf_counter() - t0
+        last = epoch == cfg.epochs or (cfg.minutes and seconds > 60 * cfg.minutes)
         row = dict(epoch=epoch, **{k: round(v / n, 6) for k, v in sums.items()}, w_ratio_max=round(w_ratio, 4),
-                   seconds=round(time.perf_counter() - t0, 2))
-        if len(held_idx) and (epoch % cfg.eval_every == 0 or epoch == cfg.epochs):
-            row.update({f"held_{k}": round(v, 6) for k, v in
-                        evaluate(model, ds, held_idx, cfg.phase, cfg.kl_weight, mesher).items()})
+                   seconds=round(seconds, 2))
+        if len(val_idx) and (epoch % cfg.eval_every == 0 or last):
+            val = evaluate(model, ds, val_idx, cfg.phase, cfg.kl_weight, mesher)
+            row.update({f"val_{k}": round(v, 6) for k, v in val.items()})
+            row["val_score"] = round(best.offer(model, epoch, [val[t] for t in TASKS[cfg.phase]]), 6)
         rows.append(row)
+        if last:
+            break
+    if cfg.keep_best and best.state is not None:
+        model.load_state_dict(best.state)
+        rows[-1]["kept_epoch"] = best.epoch
     model.eval()
     return model, rows
+
+
+class _Best:
+    """The weights at the lowest validation score: the sum of the task losses, each relative to
+    its value at the first evaluation (tasks on different scales count alike)."""
+
+    def __init__(self):
+        self.first, self.score, self.state, self.epoch = None, float("inf"), None, 0
+
+    def offer(self, model, epoch: int, losses: list[float]) -> float:
+        self.first = self.first or [max(v, 1e-12) for v in losses]
+        score = sum(v / f for v, f in zip(losses, self.first))
+        if score < self.score:
+            self.score, self.epoch = score, epoch
+            self.state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+        return score
 
 
 # ---------------------------------------------------------------------------------- files
