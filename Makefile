@@ -7,7 +7,7 @@ export VTK_DEFAULT_OPENGL_WINDOW ?= vtkEGLRenderWindow
 export PYVISTA_OFF_SCREEN ?= true
 export MPLBACKEND ?= Agg
 
-.PHONY: setup demo book lab test test-unit test-notebooks train bench clean
+.PHONY: setup demo book lab test test-unit test-fast test-notebooks train bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -23,7 +23,7 @@ setup: $(VENV)/.installed
 # FULL=1 runs the notebooks at paper scale (QUICK = False): meant for a GPU or a cluster.
 demo: setup
 	$(PY) -m data_prep build
-	$(PY) tools/run_notebooks.py --all $(if $(FULL),--full,--quick)
+	$(PY) tools/run_notebooks.py $(if $(FULL),--full,--quick) $(notdir $(basename $(NOTEBOOKS)))
 
 # The executed notebooks of `make demo` as a static site in build/book/html (docs/book.md); runs
 # no notebook, fails on a missing or failed one, a broken link or image. BOOK_ALLOW_MISSING=1: partial.
@@ -35,12 +35,21 @@ book: setup
 lab: setup
 	$(VENV)/bin/jupyter lab notebooks/ $(if $(filter 0,$(shell id -u)),--allow-root) $(LAB_ARGS)
 
+# The numbered notebooks: what `make test` and `make demo` execute. notebooks/appendix_* run on
+# demand only (tools/run_notebooks.py appendix).
+NOTEBOOKS := $(wildcard notebooks/[0-9]*.ipynb)
+
+# CI's command (.ci/run, README): every unit test, then every numbered notebook in quick mode.
 test: setup
 	$(PY) -m pytest -q tests
-	$(PY) -m pytest -q --nbmake --nbmake-timeout=1800 notebooks/
+	$(PY) -m pytest -q --nbmake --nbmake-timeout=1800 $(NOTEBOOKS)
 
 test-unit: setup
 	$(PY) -m pytest -q tests
+
+# The unit tests without the slow ones (tests/conftest.py, SLOW): about a minute, for while you edit.
+test-fast: setup
+	$(PY) -m pytest -q -m "not slow" tests
 
 # CONFIG=quick|default|paper; resumes cache/runs/$(CONFIG) if it holds a checkpoint
 CONFIG ?= quick

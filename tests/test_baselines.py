@@ -108,12 +108,6 @@ def test_catmull_rom_blend_hand_computed():
     assert torch.allclose(coef.sum(1), torch.ones(50))
 
 
-@pytest.fixture(scope="module")
-def ds(data_dir):
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
-
-
 def test_phase_from_foot_contacts_on_a_real_walk(ds):
     """The causal tracker against Holden's offline labelling (linear between touchdowns, left 0,
     right pi) on a real walk, after the first gait cycle."""

@@ -15,12 +15,6 @@ BANDAI_WALK, BANDAI_RUN = "dataset-2_walk_normal_001", "dataset-2_run_normal_001
 
 
 @pytest.fixture(scope="module")
-def ds(data_dir):
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
-
-
-@pytest.fixture(scope="module")
 def full_catalog(data_dir):
     from data_prep.catalog import build_catalog
     from data_prep.sources import SOURCES

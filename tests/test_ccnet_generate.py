@@ -19,12 +19,6 @@ from mocapviz.tasks.generation_defaults import GENERATION_MODEL
 
 
 @pytest.fixture(scope="module")
-def ds(data_dir):
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
-
-
-@pytest.fixture(scope="module")
 def committed():
     path = zoo.committed_path("ccnet_default")
     if not path.is_file():

@@ -23,12 +23,6 @@ TINY = replace(TRAIN_CONFIGS["quick"], steps=8, batch_size=4, window=30, eval_ev
                dilations=(1, 2, 4))
 
 
-@pytest.fixture(scope="module")
-def ds(data_dir):
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
-
-
 def test_quick_optimiser_fits_one_clip_better_than_copying_the_frame(ds):
     """The "quick" config's network (20 blocks, dropout off) and optimiser at its lr fit 4 windows
     of one training clip, teacher-forced, within 200 steps: the mean's RMS error (normalised,

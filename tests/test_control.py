@@ -66,10 +66,8 @@ def committed(request):
 
 
 @pytest.fixture(scope="module")
-def seeds(data_dir):
+def seeds(ds):
     """120 seed frames of every locomotion test clip of the quick dataset (5 Bandai takes)."""
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    ds = build_dataset(DatasetConfig.quick(), data_dir, progress=False)
     c = ds.clips
     rows = np.flatnonzero((c.split == "test") & c.type.isin(["walk", "jog", "dash"]) & (c.stop - c.start > 130))
     assert len(rows) >= 3

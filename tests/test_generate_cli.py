@@ -294,17 +294,15 @@ def test_the_rig_sees_past_a_file_rest_pose(data_dir, checkpoint):
 
 
 @pytest.mark.parametrize("key", ["cmu", "hdm05", "bandai"])
-def test_a_seed_reaches_the_network_as_the_dataset_built_it(data_dir, checkpoint, key):
+def test_a_seed_reaches_the_network_as_the_dataset_built_it(data_dir, ds, checkpoint, key):
     """A seed file with all 25 joints keeps its own rest pose, and a Bandai file takes the
     dataset's re-basing (known_rests.json) and its made-up joints, so its frame vectors equal
     the dataset's for the same clip: the network sees what it was trained on (aligned to the
     mean rest, a CMU walk's rotations were 0.8 standard deviations off, a Bandai walk's 1.1)."""
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
     from mocapviz.features.ccnet import motion_features
     from mocapviz.skeleton import map_to_ccnet25
     from mocapviz.tasks.generate_bvh import seed_rig
     model, norm, meta = checkpoint
-    ds = build_dataset(DatasetConfig.quick(), progress=False)
     if key == "bandai":  # a walk the quick dataset holds
         clips = ds.clips[(ds.clips.source == "bandai") & (ds.clips.description == "walk")]
         seed_file, asf = str(next((data_dir / "bandai").glob(f"*/{clips['clip'].iloc[0]}.bvh"))), None

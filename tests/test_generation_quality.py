@@ -10,12 +10,6 @@ from mocapviz.tasks.generation_quality import (LOCOMOTION_SEEDS, SEED_FRAMES, Ty
                                                within_issue_bar)
 
 
-@pytest.fixture(scope="module")
-def ds(data_dir):
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
-
-
 def test_locomotion_seeds_are_distinct_test_clips_of_the_named_kinds(ds):
     rows = locomotion_seeds(ds)
     clips = ds.clips.iloc[rows]

@@ -33,12 +33,6 @@ class CopyLast(torch.nn.Module):
         return dict(mean=mean, sigma=torch.full_like(mean, 0.5))
 
 
-@pytest.fixture(scope="module")
-def ds(data_dir):
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
-
-
 def test_a_network_that_copies_its_input_scores_copy_last(ds):
     norm = ds.normaliser
     rows = np.flatnonzero((ds.clips.split == "test").values)[:3]

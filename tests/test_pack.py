@@ -6,7 +6,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from data_prep.pack import pack, unpack
 
 pytestmark = pytest.mark.slow
@@ -23,8 +22,7 @@ def subset(ds, rows):
     return replace(ds, x=ds.x[idx], traj=ds.traj[idx], skel=ds.skel[rows], clips=clips, offsets=ds.offsets[rows])
 
 
-def test_pack_round_trip_on_real_clips(data_dir, tmp_path):
-    ds = build_dataset(DatasetConfig.quick(), data_dir, progress=False)
+def test_pack_round_trip_on_real_clips(data_dir, ds, tmp_path):
     rows = [int(ds.clips.index[ds.clips.source == s][0]) for s in ("hdm05", "cmu", "bandai")]
     small = subset(ds, rows)
     files = pack(small, data_dir, tmp_path, chunks=2, progress=False)

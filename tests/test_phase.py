@@ -10,8 +10,9 @@ import torch
 from ccnet_reference import controls_used, full_recompute_outputs, step_outputs
 from mocapviz.features.ccnet import FeatureLayout
 from mocapviz.features.motion_types import one_hot
-from mocapviz.features.phase import (LEFT_FOOT, RIGHT_FOOT, clip_phases, local_phase, on_circle, pace_hz, paced_phase,
-                                     phase_channels)
+from mocapviz.features import phase as phase_module
+from mocapviz.features.phase import (LEFT_FOOT, RIGHT_FOOT, clip_phases, dataset_fingerprint, local_phase, on_circle,
+                                     pace_hz, paced_phase, phase_channels, phase_input)
 from mocapviz.models.ccnet import CCNet
 from mocapviz.models.ccnet_config import make_config
 from mocapviz.tasks.denoising import teacher_forced
@@ -22,12 +23,6 @@ from mocapviz.training.trainer import train
 from mocapviz.training.windows import WindowData
 
 LAYOUT = FeatureLayout(25)
-
-
-@pytest.fixture(scope="module")
-def ds(data_dir):
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
 
 
 def striding(frames: int, hz: float, left_leads: bool) -> np.ndarray:
@@ -115,6 +110,39 @@ def test_window_data_appends_the_phase_to_the_trajectory_control(ds):
     assert phased.traj.shape[1] == plain.traj.shape[1] + 2
     np.testing.assert_array_equal(phased.traj[:, :-2], plain.traj)
     np.testing.assert_array_equal(phased.traj[:, -2:].numpy(), clip_phases(ds))
+
+
+def test_clip_phases_are_computed_once_per_dataset_content(ds, monkeypatch):
+    """The cached phases equal a fresh computation, a second WindowData does not recompute them,
+    and a dataset whose frames or clips changed gets its own."""
+    rows = [int(np.flatnonzero((ds.clips.source == s).values)[0]) for s in ("hdm05", "cmu", "bandai")]
+    clips = ds.clips.iloc[rows].reset_index(drop=True).copy()
+    parts = [np.arange(r.start, r.stop) for r in clips.itertuples()]
+    clips["stop"] = np.cumsum([len(p) for p in parts])
+    clips["start"] = clips["stop"] - [len(p) for p in parts]
+    idx = np.concatenate(parts)
+    small = replace(ds, x=ds.x[idx], traj=ds.traj[idx], skel=ds.skel[rows], clips=clips, offsets=ds.offsets[rows])
+    fresh = clip_phases(small, cache=False)
+    assert dataset_fingerprint(small) not in phase_module._PHASE_CACHE
+    cached = clip_phases(small)
+    np.testing.assert_array_equal(cached, fresh)
+    for r, part in zip(clips.itertuples(), parts):   # each clip on its own, as the big dataset's
+        np.testing.assert_array_equal(cached[r.start:r.stop], phase_input(ds.x[part], ds.layout, ds.config.fps))
+    cached[:] = 7.0                                   # the caller's copy, not the cache
+    with monkeypatch.context() as m:                  # the second time is a look-up
+        m.setattr(phase_module, "phase_input", lambda *a, **k: pytest.fail("recomputed a cached phase"))
+        np.testing.assert_array_equal(clip_phases(small), fresh)
+        np.testing.assert_array_equal(WindowData(small, 30, phase=True).traj[:, -2:].numpy(), fresh)
+    x = small.x.copy()
+    x[parts[0].size:] = x[parts[0].size:][::-1]       # the second and third clips' frames changed
+    changed = replace(small, x=x)
+    assert dataset_fingerprint(changed) != dataset_fingerprint(small)
+    np.testing.assert_array_equal(clip_phases(changed), clip_phases(changed, cache=False))
+    np.testing.assert_array_equal(clip_phases(changed)[:parts[0].size], fresh[:parts[0].size])
+    assert not np.array_equal(clip_phases(changed), fresh)
+    shorter = clips.copy()
+    shorter.loc[0, "stop"] -= 30                      # the clips' rows changed, the frames did not
+    assert dataset_fingerprint(replace(small, clips=shorter)) != dataset_fingerprint(small)
 
 
 @pytest.mark.parametrize("harmonics", [0, 2])

@@ -80,16 +80,14 @@ def test_pair_frames_put_each_clip_on_its_side(two_clips, tmp_path):
     assert len(imageio.mimread(gif)) == 4
 
 
-def test_study_pairs_real_against_generated_from_the_same_seed(data_dir):
+def test_study_pairs_real_against_generated_from_the_same_seed(ds):
     import torch
 
     from data_prep import zoo
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
     from mocapviz.study.analysis import intransitive_triads
     from mocapviz.study.pairs import study_pairs, usable_rows
 
     torch.set_num_threads(1)
-    ds = build_dataset(DatasetConfig.quick(), data_dir, progress=False)
     model, norm, _ = zoo.load("ccnet_default", retrain_if_missing=False)
     rows = usable_rows(ds, "test", 1.0, n_types=model.cfg.n_types)
     assert rows and all(ds.clips.stop[i] - ds.clips.start[i] >= 120 for i in rows)

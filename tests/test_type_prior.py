@@ -99,12 +99,6 @@ def committed():
     return zoo.load("ccnet_default", retrain_if_missing=False)
 
 
-@pytest.fixture(scope="module")
-def ds(data_dir):
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
-    return build_dataset(DatasetConfig.quick(), data_dir, progress=False)
-
-
 def latent_model_with_type_prior(committed):
     """The committed network's weights with a blended latent of 4, z's projection made large, and
     a type prior whose means are far from 0 (so that decoding 0 instead would show)."""
@@ -188,20 +182,19 @@ def test_the_type_prior_steadies_the_sampled_wavings_feet(ds, clip):
     assert jitter[True] < 0.8 * jitter[False], jitter
 
 
-def test_a_run_from_a_standing_start_keeps_its_legs_moving(data_dir):
+def test_a_run_from_a_standing_start_keeps_its_legs_moving(data_dir, ds):
     """CMU 127_03 starts standing: its first 2 s show no step cycle, and its phase, turned on at
     the band's floor (0.4 Hz), kept the generated legs nearly still while the body glided on
     (activity 0.16x the real runs' over seconds 30-60 of 60). Turned on at the jog's usual pace
     (TypePrior.phase_hz) the legs run (0.52x over seconds 30-60; here 20 s, seconds 10-20)."""
     from dataclasses import replace as with_field
 
-    from data_prep.ccnet_dataset import DatasetConfig, build_dataset
     from mocapviz.tasks.generate_bvh import generate_from_seed, load_seed
     from mocapviz.tasks.generation_quality import References, motion_quality
     from mocapviz.zoo import find_checkpoint
 
     model, norm, meta = load_checkpoint(find_checkpoint(str(zoo.committed_path(GENERATION_MODEL))))
-    refs = References(build_dataset(DatasetConfig.quick(), data_dir, progress=False).with_vocabulary(model.cfg.n_types))
+    refs = References(ds.with_vocabulary(model.cfg.n_types))
     seed = load_seed(data_dir / "cmu" / "127" / "127_03.bvh")
     activity = {}
     for usual_pace in (True, False):
