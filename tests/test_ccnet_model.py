@@ -104,32 +104,6 @@ def test_incremental_equals_full_recompute(dilations, batch):
     assert torch.allclose(keep[..., 2 * n:], raw_full[..., 2 * n:], atol=1e-5)
 
 
-def test_height_anchor_is_the_plain_network_on_the_height_less_the_bodys():
-    """height_anchor (a, b): the network sees the root height less o = a c^s_0 + b and its mean
-    adds o back; the same weights without the anchor, given the shifted height, differ from it
-    by exactly o on the height's mean and nowhere else."""
-    plain, anchored = net(small_cfg()), CCNet(small_cfg(height_anchor=(0.5, -0.2))).eval()
-    anchored.load_state_dict(plain.state_dict())
-    x, skel, traj, types = inputs(small_cfg())
-    h = small_cfg().height_channel
-    assert h == small_cfg().n_continuous - 1
-    o = 0.5 * skel[:, 0] - 0.2                                  # (B,)
-    shifted = x.clone()
-    shifted[..., h] -= o[:, None]
-    with torch.no_grad():
-        a, b = plain(shifted, skel, traj, types), anchored(x, skel, traj, types)
-    want = a["mean"].clone()
-    want[..., h] += o[:, None]
-    torch.testing.assert_close(b["mean"], want)
-    assert all(torch.equal(a[k], b[k]) for k in ("sigma", "contact_logits", "traj_mean", "traj_sigma"))
-    assert not torch.allclose(a["mean"], plain(x, skel, traj, types)["mean"], atol=1e-3)  # the shift matters
-    old = json.loads(small_cfg(height_anchor=(0.5, -0.2)).to_json())
-    del old["height_anchor"]                                   # a checkpoint from before the option
-    assert CCNetConfig.from_json(json.dumps(old)).height_anchor == ()
-    with pytest.raises(ValueError, match="anchored"):
-        small_cfg(height_anchor=(1.0, 0.0), residual=True)
-
-
 def stepped(m, backend, x, skel, traj, types, z):
     """The raw outputs (B, T, n_out) of ``m``'s stepper on ``backend``, one frame (and z) per call."""
     st = m.stepper(x.shape[0], backend)
@@ -138,34 +112,6 @@ def stepped(m, backend, x, skel, traj, types, z):
     with torch.inference_mode():
         return torch.stack([torch.as_tensor(st.step(conv(x[:, t]), conv(traj[:, t]), conv(z[:, t])))
                             for t in range(x.shape[1])], 1)
-
-
-@pytest.mark.parametrize("backend", ["torch", "numpy"])
-def test_height_anchor_incremental_equals_full_recompute(backend):
-    """The steppers fold the anchor into per-character biases: still the full forward."""
-    cfg = small_cfg(height_anchor=(0.7, 0.3), latent=4, traj_without_z=True)
-    m = net(cfg)
-    x, skel, traj, types = inputs(cfg, b=2, t=50)
-    z = torch.randn(2, 50, cfg.latent, generator=torch.Generator().manual_seed(3))
-    with torch.no_grad():
-        full = m.head(m.trunk(x, skel, traj, types), z, traj, skel)
-    assert torch.allclose(stepped(m, backend, x, skel, traj, types, z), full, atol=1e-4)
-
-
-def test_normaliser_height_anchor_is_the_standing_root_height():
-    """o = a norm_skel(c^s)_0 + b is the body's standing root height in x's normalised units."""
-    from mocapviz.features.ccnet import FeatureLayout
-    layout = FeatureLayout(n_joints=25)
-    h = layout.x_blocks["root"].start + 3
-    rng = np.random.default_rng(0)
-    x = rng.normal(0.9, 0.1, (200, layout.n_x)).astype(np.float32)
-    skel = rng.normal(0.84, 0.04, (200, layout.n_skel)).astype(np.float32)
-    nm = Normaliser.fit(x, skel, rng.normal(size=(200, 12)).astype(np.float32), layout.n_x - 2)
-    cfg = CCNetConfig(n_x=layout.n_x, n_skel=layout.n_skel, height_anchor=nm.height_anchor(h))
-    assert cfg.height_channel == h
-    standing = np.array([[1.02] + [0.0] * (layout.n_skel - 1)], np.float32)
-    o = cfg.height_offset(nm.norm_skel(standing))
-    np.testing.assert_allclose(o * nm.x_std[h] + nm.x_mean[h], [1.02], rtol=1e-5)
 
 
 def test_denorm_traj_inverts_norm_traj_and_drops_the_phase_columns():
@@ -181,20 +127,6 @@ def test_denorm_traj_inverts_norm_traj_and_drops_the_phase_columns():
     back = nm.denorm_traj(with_phase)
     assert back.shape == (3, 12)
     np.testing.assert_allclose(back, traj[:3], atol=1e-6)
-
-
-def test_per_body_normaliser_counts_each_body_once():
-    """Normaliser.per_body: c^s statistics over the distinct bodies, however many frames each has."""
-    rng = np.random.default_rng(1)
-    many, few = np.full((900, 3), 0.8, np.float32), np.array([[1.0, 0.5, 0.2], [1.2, 0.5, 0.4]], np.float32)
-    skel = np.concatenate([many, few, few])                       # one body 900 times, two others twice
-    nm = Normaliser.fit(rng.normal(size=(904, 6)).astype(np.float32), skel, rng.normal(size=(904, 2)), 4)
-    body = nm.per_body(skel)
-    # the three bodies' columns: (0.8, 1.0, 1.2), (0.8, 0.5, 0.5), (0.8, 0.2, 0.4)
-    np.testing.assert_allclose(body.skel_mean, [1.0, 0.6, 1.4 / 3], rtol=1e-6)
-    np.testing.assert_allclose(body.skel_std, np.sqrt([0.08 / 3, 0.06 / 3, 0.56 / 9]), rtol=1e-5)
-    assert nm.skel_std[0] < 0.03 < body.skel_std[0]               # over frames the one body's spread wins
-    np.testing.assert_array_equal(body.x_mean, nm.x_mean)          # x and c^d untouched
 
 
 def test_body_scaled_normaliser_is_the_scaled_bodies_statistics():
@@ -227,34 +159,6 @@ def test_residual_mean_adds_the_input_frame():
     assert not CCNetConfig.from_json(small_cfg(residual=True).to_json().replace(', "residual": true', "")).residual
 
 
-def test_residual_ranges_add_the_input_frame_on_those_channels_only():
-    plain, part = net(small_cfg()), CCNet(small_cfg(residual_ranges=((0, 3), (5, 7)))).eval()
-    part.load_state_dict(plain.state_dict())
-    x, skel, traj, types = inputs(small_cfg())
-    with torch.no_grad():
-        a, b = plain(x, skel, traj, types)["mean"], part(x, skel, traj, types)["mean"]
-    n = small_cfg().n_continuous
-    added = torch.zeros(n, dtype=torch.bool)
-    added[[0, 1, 2, 5, 6]] = True
-    assert torch.allclose(b[..., added], a[..., added] + x[..., :n][..., added])
-    assert torch.equal(b[..., ~added], a[..., ~added])
-    assert CCNetConfig.from_json(part.cfg.to_json()) == part.cfg
-    with pytest.raises(ValueError, match="residual_ranges"):
-        small_cfg(residual_ranges=((0, n + 1),))
-
-
-def test_residual_gain_scales_the_added_input_frame():
-    plain, leaky = net(small_cfg()), CCNet(small_cfg(residual=True, residual_gain=0.9)).eval()
-    leaky.load_state_dict(plain.state_dict())
-    x, skel, traj, types = inputs(small_cfg())
-    with torch.no_grad():
-        a, b = plain(x, skel, traj, types)["mean"], leaky(x, skel, traj, types)["mean"]
-    assert torch.allclose(b, a + 0.9 * x[..., :small_cfg().n_continuous])
-    for bad in (0.0, 1.5):
-        with pytest.raises(ValueError, match="residual_gain"):
-            small_cfg(residual=True, residual_gain=bad)
-
-
 def test_fed_back_inputs_are_the_models_own_means():
     from mocapviz.training.trainer import fed_back, model_inputs
     cfg = small_cfg(residual=True)
@@ -280,7 +184,7 @@ def test_rolled_out_inputs_run_free_from_start():
     free-running generation, residual rule included); the seed, constant channels and contacts
     stay the data's."""
     from mocapviz.training.trainer import rolled_out
-    cfg = small_cfg(residual_ranges=((0, 10),))
+    cfg = small_cfg(residual=True)
     m = net(cfg)
     x, skel, traj, types = inputs(cfg, t=12)
     varying = torch.ones(cfg.n_continuous, dtype=torch.bool)
@@ -294,15 +198,6 @@ def test_rolled_out_inputs_run_free_from_start():
     assert torch.allclose(rolled[:, 5:, :n][..., varying], mean[:, 4:-1][..., varying], atol=1e-5)
     assert torch.equal(rolled[:, 5:, 3], x[:, 5:, 3]) and torch.equal(rolled[..., n:], x[..., n:])
     assert not torch.allclose(rolled[:, 5:, :n], x[:, 5:, :n])
-
-
-def test_rollout_sigma_detaches_the_rolled_out_outputs_only():
-    from mocapviz.training.trainer import rollout_sigma
-    sigma = torch.ones(2, 6, 3, requires_grad=True)
-    out = rollout_sigma(dict(sigma=sigma * 2, mean=sigma), start=4)
-    out["sigma"].sum().backward()
-    assert torch.equal(out["sigma"], torch.full((2, 6, 3), 2.0))
-    assert torch.equal(sigma.grad[:, :4], torch.full((2, 4, 3), 2.0)) and not sigma.grad[:, 4:].any()
 
 
 def test_gaussian_nll_hand_computed():
@@ -380,21 +275,6 @@ def test_config_json_roundtrip_and_validation():
     assert CCNetConfig.from_json(cfg.to_json()) == cfg
     with pytest.raises(ValueError):
         CCNetConfig(kernel_size=3)
-
-
-def test_beta_nll_weights_the_gradient_not_the_logged_nll():
-    """beta-NLL (losses.py): the logged NLL is the plain one; the mean's gradient is the plain
-    one times sigma^(2 beta), so beta = 1 pulls a mean like the squared error, whatever sigma."""
-    target = torch.zeros(1, 1, 2)
-    for beta, expected in ((0.0, [1.0 / 4, 1.0 / 0.25]), (1.0, [1.0, 1.0]), (0.5, [1.0 / 2, 1.0 / 0.5])):
-        mean = torch.ones(1, 1, 2, requires_grad=True)
-        out = dict(mean=mean, sigma=torch.tensor([[[2.0, 0.5]]]), traj_mean=torch.zeros(1, 1, 1),
-                   traj_sigma=torch.ones(1, 1, 1), contact_logits=torch.zeros(1, 1, 0))
-        parts = ccnet_loss(out, target, torch.zeros(1, 1, 1), 2, lambdas=(0.0, 0.0, 0.0), nll_beta=beta)
-        parts["loss"].backward()
-        np.testing.assert_allclose(mean.grad[0, 0].numpy(), expected, rtol=1e-6)   # (mean - target) / sigma^2 * w
-        plain = np.log([2.0, 0.5]) + 0.5 * np.array([1 / 4, 1 / 0.25]) + 0.5 * np.log(2 * np.pi)
-        assert parts["nll"].item() == pytest.approx(plain.sum(), rel=1e-6)
 
 
 def latent_net(**kw):
@@ -523,15 +403,15 @@ def test_blended_latent_pools_the_posterior_with_the_hat_weights():
         torch.testing.assert_close(ev["mean"], m(x, skel, traj, types, z=blend)["mean"])
 
 
-def test_knot_priors_read_the_past_where_generation_draws_the_knot():
-    """A learned prior reads knot j's past at its block's first frame (held), or k frames before
-    the knot when blended (z starts moving towards it then; knots 0 and 1 both at frame 0); the
-    mean output (no z given) decodes the blend of the knots' prior means."""
+def test_knots_are_drawn_where_generation_draws_them():
+    """Knot j is drawn at its block's first frame (held), or k frames before the knot when
+    blended (z starts moving towards it then; knots 0 and 1 both at frame 0); the mean output
+    (no z given) decodes the blend of the knots' prior means."""
     from mocapviz.models.ccnet import knot_prior_frames
     np.testing.assert_array_equal(knot_prior_frames(10, 4), [0, 4, 8])
     np.testing.assert_array_equal(knot_prior_frames(10, 4, lerp=True), [0, 0, 4, 8])
     np.testing.assert_array_equal(knot_prior_frames(5, 1, lerp=True), [0, 0, 1, 2, 3])  # drawn a frame ahead
-    cfg, m = latent_net(latent_hold=4, latent_lerp=True, learned_prior=True)
+    cfg, m = latent_net(latent_hold=4, latent_lerp=True)
     x, skel, traj, types = inputs(cfg, t=10)
     with torch.no_grad():
         skip = m.trunk(x, skel, traj, types)
@@ -541,43 +421,6 @@ def test_knot_priors_read_the_past_where_generation_draws_the_knot():
         torch.testing.assert_close(ev["prior_logvar"], prior[1])
         blend = torch.einsum("tj,bjl->btl", torch.from_numpy(latent_weights(10, 4, lerp=True)), prior[0])
         torch.testing.assert_close(m(x, skel, traj, types)["mean"], m(x, skel, traj, types, z=blend)["mean"])
-
-
-def test_ar_prior_ties_each_z_to_the_one_before():
-    """latent_ar rho: the first z's prior is N(0, I), each later one's N(rho z_prev, 1 - rho^2)
-    given the previous (sampled) z, and the KL is the hand-computed one against that prior."""
-    cfg, m = latent_net(latent_ar=0.9)
-    x, skel, traj, types = inputs(cfg, t=20)
-    target = torch.randn_like(x)
-    with torch.no_grad():
-        ev = m(x, skel, traj, types, target_x=target)
-    z = ev["z_mean"]  # eval: z is the posterior mean
-    assert not ev["prior_mean"][:, 0].any() and not ev["prior_logvar"][:, 0].any()
-    torch.testing.assert_close(ev["prior_mean"][:, 1:], 0.9 * z[:, :-1])
-    assert torch.allclose(ev["prior_logvar"][:, 1:], torch.tensor(math.log(1 - 0.81)))
-    var, mean = ev["z_logvar"].exp(), ev["z_mean"]
-    by_hand = 0.5 * (math.log(0.19) - ev["z_logvar"][:, 1:] + (var[:, 1:] + (mean[:, 1:] - 0.9 * mean[:, :-1]) ** 2) / 0.19 - 1)
-    first = 0.5 * (var[:, 0] + mean[:, 0] ** 2 - 1 - ev["z_logvar"][:, 0])
-    out = dict(ev, sigma=torch.ones_like(ev["mean"]), traj_sigma=torch.ones_like(ev["traj_mean"]))
-    kl = ccnet_loss(out, target, torch.zeros_like(ev["traj_mean"]), cfg.n_continuous)["kl"]
-    assert kl.item() == pytest.approx(((by_hand.sum((1, 2)) + first.sum(-1)).mean() / 20).item(), rel=1e-5)
-    with pytest.raises(ValueError, match="latent_ar"):
-        latent_net(latent_ar=1.0)
-    with pytest.raises(ValueError, match="choose one"):
-        latent_net(latent_ar=0.5, learned_prior=True)
-
-
-def test_learned_prior_gives_the_mean_outputs_z():
-    """With a learned prior the mean output decodes the prior's mean given the past."""
-    cfg, m = latent_net(learned_prior=True)
-    x, skel, traj, types = inputs(cfg, t=20)
-    with torch.no_grad():
-        skip = m.trunk(x, skel, traj, types)
-        prior_mean, prior_logvar = m.prior_of(skip)
-        out = m(x, skel, traj, types, target_x=torch.randn_like(x))
-        assert torch.allclose(m(x, skel, traj, types)["mean"], m(x, skel, traj, types, z=prior_mean)["mean"])
-    assert prior_mean.abs().min() > 0 and torch.equal(out["prior_mean"], prior_mean)
-    assert torch.equal(out["prior_logvar"], prior_logvar)
 
 
 def test_gaussian_kl_hand_computed():
@@ -609,7 +452,7 @@ def test_latent_rollout_steps_with_the_posterior_mean():
     """A latent model's rolled-out frame is the full forward's mean on the rolled-out inputs,
     with z the posterior mean given the true next frame."""
     from mocapviz.training.trainer import rolled_out
-    cfg, m = latent_net(residual_ranges=((0, 10),))
+    cfg, m = latent_net(residual=True)
     x, skel, traj, types = inputs(cfg, t=12)
     target = torch.randn_like(x)
     b = dict(x=x, skel=skel, traj=traj, types=types, target_x=target,
@@ -624,10 +467,10 @@ def test_latent_rollout_steps_with_the_posterior_mean():
     assert not torch.allclose(rolled[:, 5:, :n], prior[:, 4:-1], atol=1e-3)
 
 
-def test_unguided_rollout_steps_with_the_learned_priors_mean():
+def test_unguided_rollout_steps_with_the_priors_mean():
     """``guided=False`` (the drift table's free run): z is the prior's mean, as in generation."""
     from mocapviz.training.trainer import rolled_out
-    cfg, m = latent_net(learned_prior=True)
+    cfg, m = latent_net()
     x, skel, traj, types = inputs(cfg, t=12)
     b = dict(x=x, skel=skel, traj=traj, types=types, target_x=torch.randn_like(x),
              varying=torch.ones(cfg.n_continuous, dtype=torch.bool))

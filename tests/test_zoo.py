@@ -38,7 +38,8 @@ def test_a_missing_model_is_never_trained_by_surprise(tmp_path):
         zoo.load("ccnet_generate", zoo_dir=tmp_path)
     msg = str(e.value)
     assert isinstance(e.value, FileNotFoundError)
-    assert "python -m data_prep train --config generate " in msg and "--export models/zoo/ccnet_generate.safetensors" in msg
+    assert "python -m data_prep train --config generate " in msg
+    assert "--export models/zoo/ccnet_generate.safetensors" in msg
     assert "models with a file in" in msg and msg.endswith("ccnet_default")
     # handed a cache and data, it looks for a cached run but trains none
     with pytest.raises(zoo.ModelNotFound, match="no cached run.*--config generate "):

@@ -231,14 +231,6 @@ class Normaliser:
         marked too: the saved normaliser keeps only mean and std (checkpoints stay as they are)."""
         return self.x_std == 1.0
 
-    def per_body(self, skel: np.ndarray) -> "Normaliser":
-        """This normaliser with c^s's mean and std over the distinct bodies of ``skel`` (N, n_skel),
-        each counted once, instead of over frames. Why: dataset v4's training frames are 90 %
-        Bandai's one body, so over frames c^s's std is that body's spread: the other training
-        bodies sat 5-22 standard deviations out (CMU 35: 12), inputs the network extrapolates on."""
-        bodies = np.unique(np.asarray(skel, np.float64), axis=0)
-        return replace(self, skel_mean=bodies.mean(0).astype(np.float32), skel_std=self._std(bodies))
-
     def body_scaled(self, lo: float, hi: float) -> "Normaliser":
         """This normaliser with c^s's mean and std those of s c^s, s ~ U(lo, hi) drawn
         independently of c^s: the bodies training sees with ``TrainConfig.body_scale``
@@ -249,12 +241,6 @@ class Normaliser:
         var = np.where(self.skel_std == 1.0, 0.0, self.skel_std.astype(np.float64) ** 2)
         std = np.sqrt(np.maximum(m2 * (var + mean ** 2) - (m1 * mean) ** 2, 0.0))
         return replace(self, skel_mean=(m1 * mean).astype(np.float32), skel_std=self._floored(std))
-
-    def height_anchor(self, h: int) -> tuple[float, float]:
-        """(a, b) of CCNetConfig.height_anchor: the body's standing root height (c^s_0) in the
-        normalised units of x's root height channel ``h`` (CCNetConfig.height_channel),
-        a * norm_skel(c^s)_0 + b."""
-        return (float(self.skel_std[0] / self.x_std[h]), float((self.skel_mean[0] - self.x_mean[h]) / self.x_std[h]))
 
     def norm_x(self, x):
         n = len(self.x_mean)

@@ -5,8 +5,7 @@ k=1 convs and the two taps of each k=2 dilated conv as matmuls (much faster than
 Input index t carries the frame x_t and the controls c_{t+1} of the frame to predict; output
 index t is the Gaussian of x_{t+1} (mean, sigma), its foot-contact logits, and the predicted
 trajectory control c^d_{t+2} (mean, sigma), fed back when no user control is given. With
-``cfg.residual`` (every channel) or ``cfg.residual_ranges`` (some) the decoder's mean output
-there is the change x_{t+1} - x_t, and the mean adds x_t.
+``cfg.residual`` the decoder's mean output is the change x_{t+1} - x_t, and the mean adds x_t.
 
 SRB i (Fig. 2): z = DilatedCausalConv_{k=2,d_i}(h) + Conv1x1_s(c^s) + Conv1x1_d(c^d) + Conv1x1_t(c^t);
 g = tanh(z_a) * sigmoid(z_b) (WaveNet's gated unit, 2C channels split in two halves);
@@ -17,8 +16,6 @@ its presets in :mod:`mocapviz.models.ccnet_config`.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 import torch
@@ -95,19 +92,12 @@ def latent_weights(n_frames: int, k: int, lerp: bool = False) -> np.ndarray:
 
 
 def knot_prior_frames(n_frames: int, k: int, lerp: bool = False) -> np.ndarray:
-    """(J,) the frame whose past gives each knot of :func:`latent_weights` its prior (a learned
-    prior, CCNetConfig.learned_prior): the frame at which generation draws it. Held: its block's
-    first frame. Blended: a knot is drawn when z starts moving towards it, k frames early, so
-    knot j's prior reads frame (j - 1) k, and knots 0 and 1 both read frame 0."""
+    """(J,) the frame at which generation draws each knot of :func:`latent_weights` (whose motion
+    type a type prior reads). Held: its block's first frame. Blended: a knot is drawn when z
+    starts moving towards it, k frames early, so knot j is drawn at frame (j - 1) k, and knots 0
+    and 1 both at frame 0."""
     j = np.arange(latent_weights(n_frames, k, lerp).shape[1])
     return np.maximum(j - 1, 0) * k if lerp else j * k
-
-
-def ar_prior(z_prev, rho: float) -> tuple:
-    """The AR(1) prior of CCNetConfig.latent_ar: mean and log-variance of z_t given the previous
-    z (torch or numpy array), N(rho z_prev, 1 - rho^2), which keeps every z N(0, 1) on its own (a
-    first z, with no previous, is N(0, 1): the callers')."""
-    return rho * z_prev, math.log(1.0 - rho * rho)
 
 
 @register_model("ccnet")
@@ -134,9 +124,6 @@ class CCNet(nn.Module):
         if cfg.phase_harmonics:  # W_k^c, W_k^s on the skip units and the bias terms of every harmonic
             self.phase_decoder = nn.Linear(2 * cfg.phase_harmonics * (cfg.skip_channels + 1), cfg.n_out, bias=False)
             nn.init.zeros_(self.phase_decoder.weight)  # starts as the plain decoder
-        if cfg.latent and cfg.learned_prior:
-            self.prior = nn.Sequential(nn.Linear(cfg.skip_channels, cfg.posterior_hidden), nn.ELU(),
-                                       nn.Linear(cfg.posterior_hidden, 2 * cfg.latent))
         # p(z | motion type), fitted after training (mocapviz.models.type_prior); set by load_checkpoint
         self.type_prior = None
 
@@ -146,14 +133,9 @@ class CCNet(nn.Module):
         return make_config(train_cfg.size, n_x=layout.n_x, n_skel=layout.n_skel,
                            n_traj=layout.n_traj + 2 * train_cfg.phase, phase=train_cfg.phase,
                            n_types=layout.n_types, dilations=train_cfg.dilations, dropout=train_cfg.dropout,
-                           residual=train_cfg.residual, residual_gain=train_cfg.residual_gain,
-                           latent=train_cfg.latent, learned_prior=train_cfg.learned_prior, latent_hold=train_cfg.latent_hold,
-                           latent_ar=train_cfg.latent_ar,
+                           residual=train_cfg.residual, latent=train_cfg.latent, latent_hold=train_cfg.latent_hold,
                            latent_lerp=train_cfg.latent_lerp, traj_without_z=train_cfg.traj_without_z,
-                           root_without_z=train_cfg.root_without_z,
-                           phase_harmonics=train_cfg.phase_harmonics,
-                           residual_ranges=tuple((layout.x_blocks[b].start, layout.x_blocks[b].stop)
-                                                 for b in train_cfg.residual_blocks))
+                           root_without_z=train_cfg.root_without_z, phase_harmonics=train_cfg.phase_harmonics)
 
     def stepper(self, batch: int = 1, backend: str = "torch"):
         """Incremental engine over this model's current weights: "torch" (:class:`CCNetStepper`,
@@ -181,8 +163,7 @@ class CCNet(nn.Module):
         extra = {}
         if self.cfg.latent and (target_x is not None or z is None):
             # one z per knot: per block of k frames, or blended between knots k frames apart
-            # (latent_weights); a knot's prior from the skip sum where generation draws it
-            # (knot_prior_frames)
+            # (latent_weights), each drawn at a frame of knot_prior_frames
             k, n = self.cfg.latent_hold, skip.shape[1]
             w = torch.from_numpy(latent_weights(n, k, self.cfg.latent_lerp)).to(skip)
             at = torch.from_numpy(knot_prior_frames(n, k, self.cfg.latent_lerp))
@@ -191,11 +172,11 @@ class CCNet(nn.Module):
                 z_mean, z_logvar = (torch.einsum("tj,btl->bjl", pool, v) for v in self.posterior_of(skip, x, target_x))
                 z_knots = z_mean + torch.exp(0.5 * z_logvar) * torch.randn_like(z_mean) if self.training else z_mean
                 z = torch.einsum("tj,bjl->btl", w, z_knots)
-                prior_mean, prior_logvar = self.prior_of(skip[:, at], z_knots)
+                prior_mean, prior_logvar = self.prior_of(skip[:, at])
                 extra = dict(z_mean=z_mean, z_logvar=z_logvar, prior_mean=prior_mean, prior_logvar=prior_logvar)
             else:  # the prior's mean per knot, as the generator's mean output
                 z = torch.einsum("tj,bjl->btl", w, self.prior_mean(skip, types, at))
-        out = self.split_output(self.head(skip, z, traj, skel))
+        out = self.split_output(self.head(skip, z, traj))
         if self.cfg.residual_slices:
             out["mean"] = self.cfg.add_residual(out["mean"].clone(), x)
         return dict(out, **extra)
@@ -203,9 +184,6 @@ class CCNet(nn.Module):
     def trunk(self, x, skel, traj, types) -> torch.Tensor:
         """The causal stack: the skip sum (B, T, skip_channels) before the decoder's ReLU."""
         skel, traj, types = self._ctrl(skel), self._ctrl(traj), self._ctrl(types)
-        if self.cfg.height_anchor:  # the root height relative to the body's standing one
-            x = x.clone()
-            x[..., self.cfg.height_channel] -= self.cfg.height_offset(skel)
         h = torch.relu(F.linear(self.dropout(x), self.encoder.weight[:, :, 0], self.encoder.bias))
         skip = 0
         for blk in self.blocks:
@@ -213,12 +191,11 @@ class CCNet(nn.Module):
             skip = skip + s
         return skip
 
-    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None, traj: torch.Tensor | None = None,
-             skel: torch.Tensor | None = None) -> torch.Tensor:
+    def head(self, skip: torch.Tensor, z: torch.Tensor | None = None, traj: torch.Tensor | None = None) -> torch.Tensor:
         """The decoder: raw output (..., n_out) from the skip sum (and z, with a latent; and the
-        phase in the control c^d ``traj``, with ``phase_harmonics``; and c^s ``skel``, with
-        ``height_anchor``). The columns ``cfg.without_z_columns`` (the predicted c^d with
-        ``traj_without_z``, the root with ``root_without_z``) are decoded from the skip sum alone."""
+        phase in the control c^d ``traj``, with ``phase_harmonics``). The columns
+        ``cfg.without_z_columns`` (the predicted c^d with ``traj_without_z``, the root with
+        ``root_without_z``) are decoded from the skip sum alone."""
         if not self.cfg.latent:
             out = self._decode(skip, traj)
         else:
@@ -227,11 +204,6 @@ class CCNet(nn.Module):
             if len(cols):
                 idx = torch.from_numpy(cols).to(out.device)
                 out = out.index_copy(-1, idx, self._decode(skip, traj, idx))
-        if self.cfg.height_anchor:  # the mean root height: the body's standing one + the decoder's
-            h, o = self.cfg.height_channel, self.cfg.height_offset(skel)[..., None]
-            if out.dim() > skel.dim():  # one c^s per sequence: (B, 1, 1)
-                o = o[:, None]
-            out = torch.cat([out[..., :h], out[..., h:h + 1] + o, out[..., h + 1:]], -1)
         return out
 
     def _decode(self, skip, traj, columns: slice | torch.Tensor = slice(None)) -> torch.Tensor:
@@ -246,18 +218,10 @@ class CCNet(nn.Module):
         """q(z | past, x_t, x_{t+1}): its mean and log-variance (..., latent)."""
         return self._mean_logvar(self.posterior(torch.cat([skip, x, target_x], -1)))
 
-    def prior_of(self, skip, z_past=None) -> tuple[torch.Tensor, torch.Tensor]:
-        """p(z | past): its mean and log-variance (..., latent); N(0, I) without a learned prior.
-        With ``cfg.latent_ar``: the AR(1) prior (:func:`ar_prior`) of each z of the sequence
-        ``z_past`` (B, N, latent) given the one before it (None: N(0, I))."""
-        if self.cfg.learned_prior:
-            return self._mean_logvar(self.prior(skip))
+    def prior_of(self, skip) -> tuple[torch.Tensor, torch.Tensor]:
+        """p(z): N(0, I), its mean and log-variance (..., latent) for skip sums (..., S)."""
         zero = skip.new_zeros(skip.shape[:-1] + (self.cfg.latent,))
-        if not self.cfg.latent_ar or z_past is None:
-            return zero, zero
-        mean, logvar = ar_prior(z_past[:, :-1], self.cfg.latent_ar)
-        first = zero[:, :1]  # a window's first z has no past: N(0, I)
-        return torch.cat([first, mean], 1), torch.cat([first, zero[:, 1:] + logvar], 1)
+        return zero, zero
 
     def prior_mean(self, skip, types, at) -> torch.Tensor:
         """(B, J, latent): the z the mean output decodes at knots whose prior reads the frames

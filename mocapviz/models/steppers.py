@@ -40,16 +40,6 @@ class _StepWeights:
     phase_w: torch.Tensor = None  # (2K (S + 1), n_out): the phase-functioned decoder's (cfg.phase_harmonics only)
 
 
-def anchored_biases(cfg, skel, enc_w, enc_b, dec_b):
-    """Encoder and decoder biases (B, .) with CCNetConfig.height_anchor folded in, for normalised
-    c^s ``skel`` (B, n_skel): the encoder sees the root height less o, the mean adds o (as
-    ``CCNet.trunk`` and ``CCNet.head``). Torch or numpy; ``enc_w`` is (n_x, C) as the steppers keep it."""
-    h, o = cfg.height_channel, cfg.height_offset(skel)[:, None]
-    unit = dec_b * 0
-    unit[h] = 1
-    return enc_b - o * enc_w[h], dec_b + o * unit
-
-
 class CCNetStepper:
     """Incremental CCNet: one frame per call, past block inputs kept in a ring buffer (hist).
 
@@ -98,7 +88,6 @@ class CCNetStepper:
         self.w = w
         self.dtype = dtype
         self._static = None
-        self._enc_b, self._dec_b = w.enc_b, w.dec_b  # per character with a height anchor (set_static)
         self.reset()
 
     def reset(self):
@@ -119,9 +108,6 @@ class CCNetStepper:
         with torch.inference_mode():
             self._static = torch.addmm(self.w.ctrl_b, torch.cat([skel, types], 1).to(self.dtype),
                                        self.w.ctrl_static_w)
-            if self.cfg.height_anchor:
-                self._enc_b, self._dec_b = anchored_biases(self.cfg, skel.to(self.dtype), self.w.enc_w, self.w.enc_b,
-                                                           self.w.dec_b)
 
     def step(self, x: torch.Tensor, traj: torch.Tensor, z: torch.Tensor | None = None) -> torch.Tensor:
         """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}, z (B, latent) the latent of
@@ -143,7 +129,7 @@ class CCNetStepper:
 
     def _decode(self, skip, traj, columns: slice | torch.Tensor) -> torch.Tensor:
         h = skip.relu()
-        out = torch.addmm(self._dec_b[..., columns], h, self.w.dec_w[:, columns])
+        out = torch.addmm(self.w.dec_b[columns], h, self.w.dec_w[:, columns])
         if self.w.phase_w is not None:
             out.addmm_(phase_basis(h, traj[:, -2:].to(self.dtype), self.cfg.phase_harmonics), self.w.phase_w[:, columns])
         return out
@@ -156,7 +142,7 @@ class CCNetStepper:
         r = self.hist.shape[0]
         past = self.hist[self._past_index[self.t % r], self._blocks]          # (nb, B, C), a copy
         cur = self.hist[self.t % r]                # block inputs of this frame are written here
-        torch.addmm(self._enc_b, x, w.enc_w, out=cur[0]).relu_()
+        torch.addmm(w.enc_b, x, w.enc_w, out=cur[0]).relu_()
         cz = torch.addmm(self._static, traj, w.ctrl_traj_w)
         pre = torch.baddbmm(cz.view(self.batch, nb, 2 * c).transpose(0, 1), past, self._past_w)
         gates = self._gates
@@ -196,7 +182,6 @@ class NumpyStepper:
         self._hb = np.ones((batch, self.cfg.skip_channels + 1), np.float32)   # the decoder's input and a 1
         self._plain_blend = np.ones((batch, 1, 1), np.float32)
         self._static = None
-        self._enc_b, self._dec_b = self.enc_b, self.dec_b  # per character with a height anchor (set_static)
         self.reset()
 
     def reset(self):
@@ -219,9 +204,6 @@ class NumpyStepper:
     def set_static(self, skel, types):
         st = np.concatenate([np.asarray(skel, np.float32), np.asarray(types, np.float32)], 1)
         self._static = st @ self.ctrl_static_w + self.ctrl_b
-        if self.cfg.height_anchor:
-            self._enc_b, self._dec_b = anchored_biases(self.cfg, np.asarray(skel, np.float32), self.enc_w, self.enc_b,
-                                                       self.dec_b)
 
     def step(self, x: np.ndarray, traj: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
         return self.head(self.trunk_step(x, traj), z, traj)
@@ -242,7 +224,7 @@ class NumpyStepper:
 
     def _merged_decoder(self, columns) -> np.ndarray:
         """(S + 1, J len(columns)): the decoder's weights (a zero row for the appended 1: the bias is
-        per character, set_static) beside the phase-functioned decoder's 2K weight sets, J = 2K + 1."""
+        added after the blend, :meth:`_decode`) beside the phase-functioned decoder's 2K weight sets, J = 2K + 1."""
         s = self.cfg.skip_channels
         plain = np.concatenate([self.dec_w, np.zeros((1, self.dec_w.shape[1]), np.float32)])[None]
         if self.phase_w is None:
@@ -266,7 +248,7 @@ class NumpyStepper:
         np.maximum(skip, 0, out=hb[:, :-1])
         y = hb @ weights
         out = np.matmul(blend, y.reshape(len(y), blend.shape[-1], -1))[:, 0]
-        out += self._dec_b[..., columns]
+        out += self.dec_b[columns]
         return out
 
     def trunk_step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:
@@ -280,7 +262,7 @@ class NumpyStepper:
         pre += cz.reshape(self.batch, nb, 2 * self.cfg.channels).transpose(1, 0, 2)
         h0 = views[0][0]
         np.matmul(x, self.enc_w, out=h0)
-        h0 += self._enc_b
+        h0 += self.enc_b
         np.maximum(h0, 0, out=h0)
         tmp = self._tmp
         for (h, h_next), (z, a, b, g), cur_w, res_w in zip(views, self._gates, self.cur_w, self.res_w):

@@ -34,7 +34,7 @@ from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, Normaliser, 
 from mocapviz.features.phase import on_circle, paced_phase
 from mocapviz.heading import from_heading_frame_xz, to_heading_frame_xz
 from mocapviz.ik import remove_foot_sliding
-from mocapviz.models.ccnet import CCNet, ar_prior
+from mocapviz.models.ccnet import CCNet
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
 from mocapviz.tasks.generation_defaults import PACES
@@ -174,7 +174,7 @@ class Generator:
         k = self.cfg.latent_hold
         if t % k == 0:  # a new knot of z every latent_hold frames (CCNetConfig.latent_hold)
             # blended (latent_lerp): frames t..t+k-1 lie between this knot and the next, so the
-            # next is drawn now, a learned prior given this frame's past (models.ccnet.knot_prior_frames)
+            # next is drawn now (models.ccnet.knot_prior_frames)
             for _ in range(2 if self.cfg.latent_lerp and not self._z_past else 1):
                 self._z_past = [self._latent(skip)] + self._z_past[:1]  # the knot and the one before
         if self.cfg.latent_lerp:
@@ -186,27 +186,17 @@ class Generator:
 
     def _latent(self, skip) -> np.ndarray:
         """z of a latent model for the next knot, from its type prior (``self.type_prior``) or else
-        its prior given the past (N(0, I) unless learned, or AR(1) given the last knot:
-        CCNetConfig.latent_ar): the prior's mean, or a draw
-        from it with the spread scaled by ``temperature`` when sampling. The frame is then the decoder's mean: the variation comes from z, not
-        from per-frame Gaussian noise on the frame."""
-        rho = self.cfg.latent_ar
+        N(0, I) (``CCNet.prior_of``): the prior's mean, or a draw from it with the spread scaled by
+        ``temperature`` when sampling. The frame is then the decoder's mean: the variation comes
+        from z, not from per-frame Gaussian noise on the frame."""
         if self.type_prior is not None:
             if not self.sample:
                 return self.type_prior.mean[self._type_index]
             return self.type_prior.draw(self._type_index, self.temperature * self._draw((len(skip), self.latent)))
-        if self.cfg.learned_prior:
-            with torch.no_grad():
-                mean, logvar = (t.numpy() for t in self.model.prior_of(torch.as_tensor(skip)))
-        elif rho and self._z_past:  # the AR(1) prior given the last z (CCNet.prior_of), in numpy
-            mean, logvar = ar_prior(self._z_past[0], rho)
-            mean = np.asarray(mean, dtype=np.float32)
-            logvar = np.full_like(mean, logvar)
-        else:  # N(0, I) (CCNet.prior_of) without a torch call per frame
-            mean = logvar = np.zeros((len(skip), self.latent), dtype=np.float32)
+        mean = np.zeros((len(skip), self.latent), dtype=np.float32)  # N(0, I) without a torch call per frame
         if not self.sample:
             return mean
-        return mean + self.temperature * np.exp(0.5 * logvar) * self._draw(mean.shape)
+        return mean + self.temperature * self._draw(mean.shape)
 
     def _draw(self, shape) -> np.ndarray:
         """This frame's N(0, 1) draws: independent of the last frame's, or AR(1) with lag-one
@@ -245,7 +235,7 @@ class Generator:
         self.stepper.reset()
         self.raw_outputs = []
         self._noise = None
-        self._z_past = []  # the last two knots of z, newest first (blended between; an AR prior's past)
+        self._z_past = []  # the last two knots of z, newest first (blended between)
         stepper_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
             if self.backend == "torch" else self.stepper.set_static
 

@@ -15,16 +15,6 @@ L = L_G + lambda1 L_s + lambda2 L_f + lambda3 L_d with lambda = (10, 2, 1):
   shuffles in place. Averaged, it smooths without that collapse.
 - L_f (Eq. 9): binary cross-entropy of the two foot-contact labels (from logits).
 
-beta-NLL (``nll_beta`` > 0; Seitzer et al. 2022, "On the pitfalls of heteroscedastic uncertainty
-estimation"): each channel's NLL is weighted by stop-gradient(sigma^(2 beta)) in the total. The
-gradient of the plain NLL on a mean is (mean - target) / sigma^2, so a channel the network has
-not fitted yet gets a large sigma, which shrinks the pull on its mean, which keeps it unfitted.
-We measured exactly that: the committed CCNets' one-step mean errs by ~0.5 training
-standard deviations on the median channel, 25x what repeating the last frame errs
-(:mod:`mocapviz.tasks.one_step`), with sigma ~1 there, while ~10 % of the channels are nailed
-(sigma < 0.04). beta = 1 gives the mean the gradient of the squared error; 0 is the paper's
-loss. The logged ``nll`` is always the plain NLL, so runs with and without compare.
-
 Channels that are constant in the training data (the rotations and angular velocities of joints
 without rotational freedom: 44 of 304 in dataset v3) are left out of L_G and L_s (``channels``).
 Kept in, their sigma shrinks (median 0.002 in the first committed model, together -218 of its
@@ -69,24 +59,21 @@ def smoothness(mean: torch.Tensor, channels: torch.Tensor | None = None) -> torc
 
 
 def ccnet_loss(out: dict, target_x: torch.Tensor, target_traj: torch.Tensor, n_continuous: int,
-               lambdas=LAMBDAS, channels: torch.Tensor | None = None, nll_beta: float = 0.0,
+               lambdas=LAMBDAS, channels: torch.Tensor | None = None,
                kl_weight: float = 1.0) -> dict[str, torch.Tensor]:
     """out: the model's dict; target_x (B, T, n_x) = x_{t+1}; target_traj (B, T, 12) = c^d_{t+2};
     the first ``n_continuous`` channels of x are Gaussian, the rest contact labels; ``channels``
-    (n_continuous,) bool: the continuous channels that count in L_G and L_s (None: all);
-    ``nll_beta``: the beta-NLL weight exponent of L_G in the total (0: the paper's NLL)."""
+    (n_continuous,) bool: the continuous channels that count in L_G and L_s (None: all)."""
     l1, l2, l3 = lambdas
     elem = gaussian_nll(target_x[..., :n_continuous], out["mean"], out["sigma"])
-    weight = out["sigma"].detach() ** (2 * nll_beta)  # 1 everywhere for the paper's beta = 0
     if channels is not None:
-        elem, weight = elem[..., channels], weight[..., channels]
+        elem = elem[..., channels]
     nll = elem.sum(-1).mean()
-    gaussian = (weight * elem).sum(-1).mean()
     traj_nll = gaussian_nll(target_traj, out["traj_mean"], out["traj_sigma"]).sum(-1).mean()
     contact = F.binary_cross_entropy_with_logits(out["contact_logits"], target_x[..., n_continuous:],
                                                  reduction="none").sum(-1).mean()
     smooth = smoothness(out["mean"], channels)
-    total = gaussian + l1 * smooth + l2 * contact + l3 * traj_nll
+    total = nll + l1 * smooth + l2 * contact + l3 * traj_nll
     parts = dict(nll=nll, smooth=smooth, contact=contact, traj_nll=traj_nll)
     if "z_mean" in out:  # a latent model (CCNetConfig.latent): the ELBO's KL(posterior || prior) per frame,
         # each z counted once (one per block of CCNetConfig.latent_hold frames)
@@ -101,12 +88,12 @@ def gaussian_kl(mean, logvar, prior_mean, prior_logvar) -> torch.Tensor:
     return 0.5 * (prior_logvar - logvar + (torch.exp(logvar) + (mean - prior_mean) ** 2) / torch.exp(prior_logvar) - 1.0)
 
 
-def ccnet_window_loss(out: dict, batch: dict, cfg, lambdas=LAMBDAS, nll_beta: float = 0.0,
+def ccnet_window_loss(out: dict, batch: dict, cfg, lambdas=LAMBDAS,
                       kl_weight: float = 1.0) -> dict[str, torch.Tensor]:
     """:func:`ccnet_loss` on a training batch of :class:`mocapviz.training.windows.WindowData`
     (its ``varying`` channels count in L_G and L_s)."""
     return ccnet_loss(out, batch["target_x"], batch["target_traj"], cfg.n_continuous, lambdas, batch.get("varying"),
-                      nll_beta, kl_weight)
+                      kl_weight)
 
 
 LOSSES = {"ccnet": ccnet_window_loss}

@@ -75,14 +75,13 @@ def fed_back(net, b: dict, inputs: dict, passes: int) -> torch.Tensor:
 @torch.no_grad()
 def rolled_out(model, b: dict, start: int, guided: bool = True) -> torch.Tensor:
     """Inputs ``b["x"]`` (B, T, n_x) whose frames from ``start`` on are the model's own
-    free-running means, as in generation (``TrainConfig.rollout_from``).
+    free-running means, as in generation (what :func:`mocapviz.tasks.one_step.drift_table` measures).
 
     Frames before ``start`` stay the (noisy) data, a seed; from there the incremental stepper
     (:mod:`mocapviz.models.steppers`) feeds every predicted mean back as the next input, with the
     window's own trajectory controls. Unlike :func:`fed_back`, whose chains are ``passes``
-    predictions deep, a rolled-out frame carries the errors of every prediction since ``start``:
-    the network trains on the drift it makes itself, with the data as the target it should
-    return to. The constant channels and the contact labels stay the data's.
+    predictions deep, a rolled-out frame carries the errors of every prediction since ``start``.
+    The constant channels and the contact labels stay the data's.
     """
     x = b["x"].clone()
     varying, cfg = b["varying"], model.cfg
@@ -102,36 +101,6 @@ def rolled_out(model, b: dict, start: int, guided: bool = True) -> torch.Tensor:
         mean = cfg.add_residual(raw[:, mean_at].clone(), x[:, t])
         x[:, t + 1, :n][:, varying] = mean[:, varying]
     return x
-
-
-def rollout_sigma(out: dict, start: int) -> dict:
-    """``out`` with sigma detached at the outputs whose input was rolled out (index >= ``start``).
-
-    There the mean's error is mostly the drift of the rollout, which the network is meant to
-    pull back, not the uncertainty of the next frame given the true past; learning sigma from
-    it would make every sample jump by the size of that drift. The mean still learns from every
-    frame (with ``nll_beta`` = 1 its gradient is the squared error's, whatever sigma is).
-    """
-    sigma = out["sigma"]
-    return dict(out, sigma=torch.cat([sigma[:, :start], sigma[:, start:].detach()], dim=1))
-
-
-def offset_noise(x: torch.Tensor, std: float, n_continuous: int) -> torch.Tensor:
-    """A constant offset per window on the continuous channels of x (B, T, n_x): N(0, s^2) per
-    channel with s ~ U(0, std) per window (``TrainConfig.offset_noise_std``).
-
-    I.i.d. per-frame noise is averaged away over the receptive field; a pose that has drifted in
-    generation is off by the same amount on every recent frame. With an offset on the inputs and
-    clean targets the network is meant to learn to pull such a pose back (most random offsets
-    leave the low-dimensional set of real poses, and the rotation, position and velocity blocks
-    then disagree). In the generation experiments (docs/experiments.md) it did not: a residual
-    network trained with offsets up to 0.3 std still drifted by metres within 60 s.
-    """
-    b = x.shape[0]
-    scale = std * torch.rand(b, 1, 1)
-    out = torch.zeros_like(x)
-    out[..., :n_continuous] = scale * torch.randn(b, 1, n_continuous)
-    return out
 
 
 def lr_at(cfg: TrainConfig, step: int) -> float:
@@ -177,8 +146,6 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
     ckpt, csv_path, best_path = out_dir / CHECKPOINT, out_dir / LOG, out_dir / BEST
     if cfg.window > ds.config.window:
         raise ValueError(f"window {cfg.window} exceeds the dataset's {ds.config.window}")
-    if cfg.skel_per_body:  # the checkpoint keeps this normaliser: generation reads c^s as trained
-        ds = replace(ds, normaliser=ds.normaliser.per_body(ds.skel[(ds.clips.split == "train").values]))
     if cfg.body_scale:  # c^s normalised over the scaled bodies training sees (the checkpoint keeps it)
         ds = replace(ds, normaliser=ds.normaliser.body_scaled(*cfg.body_scale))
     pretrained = None
@@ -200,12 +167,8 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
             raise ValueError(f"{init} holds a {pretrained[0].name!r} model, the config trains {cfg.model!r}")
         model = pretrained[0].train().to(device)
     else:
-        model = model_cls(cfg.model_config(data.layout, ds.normaliser)).to(device)
+        model = model_cls(cfg.model_config(data.layout)).to(device)
     loss_fn = LOSSES[model.name]
-    if cfg.rollout_from and not hasattr(model, "stepper"):
-        raise ValueError(f"rollout_from needs a model with an incremental stepper (CCNet), not {cfg.model!r}")
-    if cfg.rollout_from and cfg.latent_hold > 1:  # rolled_out decodes the posterior of each frame
-        raise ValueError("rollout_from steps with a z per frame: it does not support latent_hold > 1")
     opt = cfg.make_optimizer(model.parameters())
     start = 0
     rows: list[dict] = []
@@ -248,20 +211,14 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
             group["lr"] = lr
         rng = np.random.default_rng([cfg.seed, rank, step])
         torch.manual_seed(int(rng.integers(2 ** 62)))
-        b = data.batch(data.draw_train(rng, per_rank, cfg.type_balance))
+        b = data.batch(data.draw_train(rng, per_rank))
         if cfg.body_scale:  # each window's body at another size (WindowData.scaled)
             b = data.scaled(b, rng.uniform(*cfg.body_scale, size=per_rank))
         b["x"] = b["x"] + cfg.noise_std * torch.randn_like(b["x"])  # input noise (the targets stay clean)
-        if cfg.offset_noise_std:
-            b["x"] = b["x"] + offset_noise(b["x"], cfg.offset_noise_std, model.cfg.n_continuous)
         if cfg.feedback_passes:
             b["x"] = fed_back(net, b, model_inputs(model, b), cfg.feedback_passes)
-        if cfg.rollout_from:
-            b["x"] = rolled_out(model, b, cfg.rollout_from)
         out = net(**model_inputs(model, b))
-        if cfg.rollout_from:  # sigma learns from the seed part only (see rollout_sigma)
-            out = rollout_sigma(out, cfg.rollout_from)
-        parts = loss_fn(out, b, model.cfg, cfg.lambdas, nll_beta=cfg.nll_beta, kl_weight=cfg.kl_weight)
+        parts = loss_fn(out, b, model.cfg, cfg.lambdas, kl_weight=cfg.kl_weight)
         opt.zero_grad(set_to_none=True)
         parts["loss"].backward()
         opt.step()

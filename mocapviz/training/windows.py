@@ -40,8 +40,6 @@ class WindowData:
         # network then cost as much as ~100 training steps on a GPU.
         self.val = ds.window_starts("val", window, stride=VAL_STRIDE)
         self.n_train_frames = int(sum(r.stop - r.start for r in ds.clips.itertuples() if r.split == "train"))
-        self.train_types = ds.clips.type_index.values[self.train[:, 0]]
-        self._draw_p: dict[float, np.ndarray] = {}   # type_balance -> window probabilities
         # per channel, the mask of what grows with the body and mean / std (see ``scaled``)
         n, n_traj = len(norm.x_mean), self.layout.n_traj
         grows = self.layout.length_channels
@@ -61,17 +59,9 @@ class WindowData:
             setattr(self, name, getattr(self, name).to(device))
         return self
 
-    def draw_train(self, rng: np.random.Generator, n: int, type_balance: float = 0.0) -> np.ndarray:
-        """``n`` training windows drawn with replacement: uniformly (``type_balance`` 0), or each
-        weighted by 1 / (training windows of its motion type)^type_balance, so 1 draws every type
-        equally often (in dataset v4 walks are 62 % of the 60-frame windows, hops 0.2 %)."""
-        if not type_balance:
-            return self.train[rng.integers(len(self.train), size=n)]
-        if type_balance not in self._draw_p:  # once per run, not every step
-            counts = np.bincount(self.train_types)
-            w = counts[self.train_types].astype(np.float64) ** -type_balance
-            self._draw_p[type_balance] = w / w.sum()
-        return self.train[rng.choice(len(self.train), size=n, p=self._draw_p[type_balance])]
+    def draw_train(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """``n`` training windows drawn uniformly with replacement."""
+        return self.train[rng.integers(len(self.train), size=n)]
 
     def scaled(self, b: dict, s) -> dict[str, torch.Tensor]:
         """The batch ``b`` with each window's body and motion ``s`` (B,) times as large: c^s, the
