@@ -77,6 +77,8 @@ MODULE_COMMANDS = (
      "on poses into results/ccnet_generation.csv (see data_prep/generation_table.py)"),
     ("train-cvae", "data_prep.train_cvae", "train the 4D motion CVAE (phases 1, 2, ablations) or write its "
      "reconstruction table (see data_prep/train_cvae.py)"),
+    ("finetune-table", "data_prep.finetune_table", "CCNet Table 5: fine-tuning on the unseen subject tr, rel_p "
+     "(see data_prep/finetune_table.py)"),
     ("cvae4d-prediction", "data_prep.cvae4d_prediction", "4D motion prediction (paper 2 §5): train Residual-sup "
      "or write results/cvae4d_prediction.csv (see data_prep/cvae4d_prediction.py)"),
 )
