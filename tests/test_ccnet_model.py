@@ -9,7 +9,8 @@ import pytest
 import torch
 
 from mocapviz.features.ccnet import Normaliser
-from mocapviz.models.ccnet import CCNet, latent_weights
+from mocapviz.models.ccnet import CCNet
+from mocapviz.models.ccnet_extensions import latent_weights
 from mocapviz.models.ccnet_config import CCNetConfig, receptive_field
 from mocapviz.models.steppers import CCNetStepper
 from mocapviz.training.checkpoint import load_checkpoint, save_checkpoint
@@ -407,7 +408,7 @@ def test_knots_are_drawn_where_generation_draws_them():
     """Knot j is drawn at its block's first frame (held), or k frames before the knot when
     blended (z starts moving towards it then; knots 0 and 1 both at frame 0); the mean output
     (no z given) decodes the blend of the knots' prior means."""
-    from mocapviz.models.ccnet import knot_prior_frames
+    from mocapviz.models.ccnet_extensions import knot_prior_frames
     np.testing.assert_array_equal(knot_prior_frames(10, 4), [0, 4, 8])
     np.testing.assert_array_equal(knot_prior_frames(10, 4, lerp=True), [0, 0, 4, 8])
     np.testing.assert_array_equal(knot_prior_frames(5, 1, lerp=True), [0, 0, 1, 2, 3])  # drawn a frame ahead

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
-from mocapviz.models.ccnet import phase_basis, phase_waves
+from mocapviz.models.ccnet_extensions import phase_basis, phase_waves
 
 if TYPE_CHECKING:
     from mocapviz.models.ccnet import CCNet
@@ -111,7 +111,7 @@ class CCNetStepper:
 
     def step(self, x: torch.Tensor, traj: torch.Tensor, z: torch.Tensor | None = None) -> torch.Tensor:
         """x (B, n_x) frame t, traj (B, n_traj) control c^d_{t+1}, z (B, latent) the latent of
-        a model with one (None: z = 0, not a learned prior's mean: ``CCNet.prior_of``); returns
+        a model with one (None: z = 0, the N(0, I) prior's mean: ``CCNet.prior_of``); returns
         the raw decoder output (B, n_out) for frame t+1 (split it with ``CCNet.split_output``)."""
         return self.head(self.trunk_step(x, traj), z, traj)
 

@@ -174,7 +174,7 @@ class Generator:
         k = self.cfg.latent_hold
         if t % k == 0:  # a new knot of z every latent_hold frames (CCNetConfig.latent_hold)
             # blended (latent_lerp): frames t..t+k-1 lie between this knot and the next, so the
-            # next is drawn now (models.ccnet.knot_prior_frames)
+            # next is drawn now (models.ccnet_extensions.knot_prior_frames)
             for _ in range(2 if self.cfg.latent_lerp and not self._z_past else 1):
                 self._z_past = [self._latent(skip)] + self._z_past[:1]  # the knot and the one before
         if self.cfg.latent_lerp:
