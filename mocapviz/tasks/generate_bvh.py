@@ -6,9 +6,11 @@ to ``seed_seconds``; its skeleton is mapped onto the model's joints
 (:func:`mocapviz.skeleton_map.map_skeleton`: by a naming convention's table, else from the tree
 and the rest pose; :class:`mocapviz.tasks.rig.ModelRig`) and aligned to
 the mean rest pose of the training skeletons; that rest pose with the file's own bone lengths
-gives c^s. :class:`mocapviz.tasks.generate.Generator`
-continues the seed; the generated frames go back onto the seed's skeleton (all its joints and
-names) and follow the seed frames in the output. A seed may be as short as one frame (with a
+gives c^s. A body the training data did not have is retargeted onto the training body at its
+leg length, generated there and retargeted back (:func:`generate_from_seed` says why).
+:class:`mocapviz.tasks.generate.Generator` continues the seed; the generated frames, their
+feet on the seed's floor (:func:`grounded`), go back onto the seed's skeleton (all its joints
+and names) and follow the seed frames in the output. A seed may be as short as one frame (with a
 :class:`ShortSeedWarning` under the receptive field: the paper's zero padding before the seed).
 """
 
@@ -22,18 +24,19 @@ from pathlib import Path
 import numpy as np
 
 from mocapviz.features.ccnet import TRAJ_STEPS, FeatureLayout, heading_angles, motion_features
-from mocapviz.features.ccnet_joints import known_alignment
+from mocapviz.features.ccnet_joints import CCNET_25_PARENTS, T_POSE_DIRECTIONS, known_alignment
 from mocapviz.features.motion_types import one_hot
 from mocapviz.io.asfamc import read_amc
 from mocapviz.io.bvh import read_bvh
 from mocapviz.io.tpose import leading_tpose_frames
 from mocapviz.motion import Motion
-from mocapviz.skeleton import SkeletonMapError
+from mocapviz.skeleton import Skeleton, SkeletonMapError
 from mocapviz.skeleton_map import map_skeleton
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.generation_defaults import PACE, SAMPLING_TEMPERATURE
-from mocapviz.tasks.rig import ModelRig
+from mocapviz.tasks.rig import ModelRig, known_body, leg_length, retarget_to
 
+BODIES = ("auto", "own", "training")  # what generate_from_seed(body=...) accepts
 STANDARD_ORDERS = ("ZXY", "ZYX")  # rotation channel orders every BVH tool reads (Blender, MotionBuilder)
 CENTIMETRE = 0.01
 
@@ -141,9 +144,11 @@ def seed_rig(seed: Motion, names: dict, dataset_meta: dict, normaliser) -> Model
     A skeleton the training data had under another rest (Bandai's) takes the dataset's re-basing
     (:func:`mocapviz.features.ccnet_joints.known_alignment`): aligned to the mean training rest
     instead, a Bandai walk's rotations came out 1.1 standard deviations from the dataset's.
-    Other skeletons are aligned to the mean training rest (:class:`ModelRig`)."""
+    Other skeletons, and one with every model joint whose legs do not rest as the VICON
+    skeletons' (:func:`vicon_legs`: a 3ds-Max-style CMU hierarchy written with straight legs),
+    are aligned to the mean training rest (:class:`ModelRig`)."""
     joints = dataset_meta["joint_names"]
-    if set(names.values()) == set(joints):
+    if set(names.values()) == set(joints) and vicon_legs(seed.skeleton, names):
         return ModelRig(seed, names, joints, dataset_meta["parents"])
     known = known_alignment(seed.skeleton, names)
     if known is not None:
@@ -152,11 +157,66 @@ def seed_rig(seed: Motion, names: dict, dataset_meta: dict, normaliser) -> Model
                     rotation_stats=rotation_stats(normaliser, len(joints)))
 
 
+def vicon_legs(skeleton, names: dict, tol_degrees: float = 10.0) -> bool:
+    """Whether thighs and shins of ``skeleton`` (file joint -> model joint ``names``) rest as
+    the VICON skeletons of the training data (splayed 20 degrees, :data:`T_POSE_DIRECTIONS`)
+    within ``tol_degrees``. Every CMU and HDM05 skeleton here does to 0.001 degrees; their
+    clavicles and lower backs do not (up to 41 degrees off the training rest's straight lines),
+    so legs are what is checked. A file whose legs rest straight down would keep a 20-degree
+    offset in every leg rotation with its own rest."""
+    by_model = {m: f for f, m in names.items()}
+    rest = skeleton.rest_positions()
+    for joint in ("LeftUpLeg", "LeftLeg", "RightUpLeg", "RightLeg"):
+        child = next(c for c, p in CCNET_25_PARENTS.items() if p == joint)
+        bone = rest[skeleton.index(by_model[child])] - rest[skeleton.index(by_model[joint])]
+        cos = bone @ np.asarray(T_POSE_DIRECTIONS[joint]) / max(np.linalg.norm(bone), 1e-9)
+        if np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))) > tol_degrees:
+            return False
+    return True
+
+
+def generation_body(rig: ModelRig, dataset_meta: dict, body: str = "auto"):
+    """The skeleton (model joints) the network generates on for a seed on ``rig``, or None for
+    the seed's own (:func:`generate_from_seed`, ``body``): "own"; "training": the training body
+    (:func:`mocapviz.tasks.rig.known_body`, Bandai's) scaled to the seed's leg length; "auto":
+    the training body for a skeleton the training data did not have (``rig`` aligned to the
+    training rest), else its own."""
+    if body not in BODIES:
+        raise GenerateError(f"body is one of {', '.join(BODIES)}, got {body!r}")
+    if body == "own" or (body == "auto" and not rig.aligned_to_canonical):
+        return None
+    trained = known_body(dataset_meta["joint_names"], dataset_meta["parents"])
+    k = leg_length(rig.skeleton) / leg_length(trained)
+    return Skeleton(trained.names, trained.parents, k * trained.offsets, tuple((j, tuple(k * np.asarray(o)))
+                                                                             for j, o in trained.end_sites))
+
+
+def floor_height(positions: np.ndarray) -> float:
+    """The floor (m) under frames of joint positions (F, J, 3), Y up: the median over frames of
+    the lowest joint's height (a planted toe or heel)."""
+    return float(np.median(positions[..., 1].min(axis=-1)))
+
+
+def grounded(motion: Motion, floor: float, seconds: float = 1.0) -> Motion:
+    """``motion`` raised or lowered, frame by frame, so that the running median over ``seconds``
+    of its lowest joint's height stays at ``floor`` (m), the correction smoothed over as long
+    again (a step's heel-toe roll and a hop's flight do not move it)."""
+    low = motion.positions()[..., 1].min(axis=-1)
+    n = max(1, int(round(seconds * motion.fps)))
+    pad = np.pad(low, (n // 2, n - 1 - n // 2), mode="edge")
+    running = np.median(np.lib.stride_tricks.sliding_window_view(pad, n), axis=-1)
+    shift = np.convolve(np.pad(floor - running, (n // 2, n - 1 - n // 2), mode="edge"), np.ones(n) / n, mode="valid")
+    root = motion.root_positions.copy()
+    root[:, 1] += shift
+    return replace(motion, root_positions=root, meta={**motion.meta, "grounded_shift": shift})
+
+
 def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk",), seconds: float = 10.0,
                        switch_every: float | None = None, path_xz=None, sample: bool = False, ik: bool = True,
                        seed_seconds: float = 2.0, joint_map=None, rng_seed: int = 0, skeleton_z: float = 3.0,
                        temperature: float = SAMPLING_TEMPERATURE, noise_correlation: float = 0.0,
-                       pace: str = PACE, progress: bool = False) -> SeedGeneration:
+                       pace: str = PACE, body: str = "auto", ground: bool = True,
+                       progress: bool = False) -> SeedGeneration:
     """Continue ``seed`` (a Motion on any skeleton, e.g. from :func:`load_seed`) for ``seconds``.
 
     ``model``, ``normaliser``, ``meta``: a loaded checkpoint (its ``meta['dataset']`` gives the
@@ -169,7 +229,11 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     with ``sample``, frames are drawn from N(mean, (temperature * sigma)^2) (a latent model
     draws z instead); ``noise_correlation``: the draws' correlation from frame to frame;
     ``pace``: without a path, "seed" holds the speed of the plan at the seed's end, "network"
-    feeds the network's own plan as predicted (:class:`mocapviz.tasks.generate.Generator`).
+    feeds the network's own plan as predicted (:class:`mocapviz.tasks.generate.Generator`);
+    ``body``: the skeleton the network generates on (:func:`generation_body`): "auto" (a body the
+    training data did not have is generated on the training body and retargeted back, others on
+    their own), "own", or "training" (every seed on the training body, for comparisons);
+    ``ground``: keep the generated body's feet on the seed's floor (:func:`grounded`).
 
     Any seed of one frame or more: one shorter than the model's receptive field + 1 frames
     warns (:class:`ShortSeedWarning`) and is fed as it is, the network seeing zeros before it
@@ -179,6 +243,24 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     the output is scaled back) and its c^s limited to ``skeleton_z`` (:func:`limit_skeleton`): a
     model trained on ~20 VICON skeletons crouched to half height from a Bandai seed's own c^s
     (10 standard deviations out at the hips) and stood with it limited to 3.
+
+    A body unlike the training bodies (one aligned to the training rest by :func:`seed_rig`:
+    Mixamo, Xsens MVN, a 3ds-Max-style CMU hierarchy) is not generated on at all: the seed's
+    motion goes onto the training body scaled to the seed's leg length (Bandai's, 90 % of the
+    training frames: :func:`mocapviz.tasks.rig.known_body`) with the library's retargeting and
+    leg IK (:func:`mocapviz.tasks.rig.retarget_to`), the network continues it there with that
+    body's c^s, and the generated frames come back the same way. Why: on its own body a
+    Mixamo-proportioned walk (torso 8 cm longer, root 7 cm above the hip joints) shuffled at
+    0.12x the seed's ground speed, 7.9 cm into the floor and crouched, although its c^s lay
+    within the ``skeleton_z`` clamp but for one value (``--skeleton-z`` inf changed nothing;
+    0, c^s at the training mean under the body's own frame vectors, ran at 3.4x) and its
+    rotations, aligned to the training rest, were as near the training statistics as the
+    source take's (0.44 vs 0.42 mean |z|): the body's joint positions were not (0.89 vs
+    0.36). On the training body it walks at 1.18x (``benchmarks/bench_generate_files.py
+    --diagnose``). The generated root's height is then held to the seed's floor
+    (:func:`grounded`): on their own bodies the held-out VICON subject's jog sank 19 cm into
+    the floor with its legs straight, CMU 35_01's walk 18 cm (the network's root height keeps
+    near the training body's whatever the c^s).
     """
     ds = meta["dataset"]
     fps, known = float(ds["fps"]), tuple(ds["motion_types"])
@@ -203,6 +285,10 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     seed60 = seed60[:n_seed]
     rig = seed_rig(seed60, names, ds, normaliser)
     seed_m = rig.to_model(seed60)
+    floor = floor_height(seed_m.positions())
+    on_body = generation_body(rig, ds, body)
+    if on_body is not None:  # the seed's motion on the body the network generates on
+        seed_m = retarget_to(seed_m, on_body)
     # the network knows the sizes of its training skeletons only: it sees the seed scaled into
     # their root heights (within skeleton_z standard deviations of their mean; a seed inside
     # stays as it is), and c^s within skeleton_z standard deviations of their mean
@@ -222,8 +308,13 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
         feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
         seed_traj=seed_controls(feats.traj)[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
         progress=progress)
-    gen_m = rig.expressible(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading,
-                                      ik=ik, include_seed=False).scaled(1 / size))
+    gen_m = gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,
+                       include_seed=False).scaled(1 / size)
+    if on_body is not None:  # back onto the seed's own body
+        gen_m = retarget_to(gen_m, rig.skeleton)
+    gen_m = rig.expressible(gen_m)
+    if ground:
+        gen_m = grounded(gen_m, floor)
     out = _concat(seed60, rig.from_model(gen_m))
     return SeedGeneration(out, n_seed, gen_m, rig)
 

@@ -36,15 +36,23 @@ skeleton at the mapped joints equals the model skeleton's joint positions. Why g
 local rotations: when joints are dropped in between, the model joint's local rotation is the
 product of the file's locals along the chain; matching global rotations carries it over
 whatever the chain, with the dropped joints held fixed.
+
+Two model skeletons share that rest convention, so a motion moves between them by its local
+rotations, the hip joints' midpoint and leg IK (:func:`retarget_to`): the generate command
+generates a body unlike the training bodies on the training body the repository knows
+(:func:`known_body`) and brings the result back.
 """
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mocapviz.features.ccnet_joints import ZERO_LENGTH_JOINTS
+from mocapviz.features.ccnet_joints import CCNET_25_PARENTS, KNOWN_RESTS_FILE, ZERO_LENGTH_JOINTS
 from mocapviz.heading import shortest_arc
+from mocapviz.ik import LEGS, two_bone_ik
 from mocapviz.kinematics import global_to_local
 from mocapviz.motion import Motion
 from mocapviz.rotations import matrix_to_rotvec
@@ -97,6 +105,8 @@ class ModelRig:
                     self.align[c] = self.align[self.parents[c]]
         elif canonical_rest is not None:
             self.align = self._alignments(np.asarray(canonical_rest, dtype=np.float64), reference)
+        # a body the training data did not have: its rest turned onto the training skeletons' rest
+        self.aligned_to_canonical = alignment is None and canonical_rest is not None
         self.skeleton = Skeleton(self.names, self.parents, *self._model_rest())
 
     def _chain(self, top: int, j: int) -> np.ndarray:
@@ -278,3 +288,69 @@ class ModelRig:
         trans = {j: np.einsum("fji,fj->fi", g[:, fsk.parents[j]], p[:, j] - p[:, fsk.parents[j]])
                  for j in self.translated}
         return Motion(fsk, global_to_local(g, fsk.parents), p[:, 0], motion.fps, name=motion.name, translations=trans)
+
+
+def leg_length(skeleton: Skeleton, legs=LEGS) -> float:
+    """Mean over the legs of thigh plus shin length (m): hip joint to knee to ankle."""
+    return float(np.mean([np.linalg.norm(skeleton.offsets[skeleton.index(knee)])
+                          + np.linalg.norm(skeleton.offsets[skeleton.index(ankle)]) for _, knee, ankle in legs]))
+
+
+def hip_midpoint(skeleton: Skeleton, positions: np.ndarray, legs=LEGS) -> np.ndarray:
+    """(..., 3) midpoint of the two hip joints (the legs' first joints) of positions (..., J, 3)."""
+    return 0.5 * (positions[..., skeleton.index(legs[0][0]), :] + positions[..., skeleton.index(legs[1][0]), :])
+
+
+def retarget_to(motion: Motion, target: Skeleton, ik: bool = True, legs=LEGS) -> Motion:
+    """``motion`` (on the model's joints) on ``target``, a skeleton of the same joints and the
+    same rest convention (two model skeletons: a :class:`ModelRig`'s and :func:`known_body`'s,
+    both resting in the training skeletons' bone directions, with other bone lengths). The
+    local rotations carry over as they are; the root is placed so that the midpoint of the hip
+    joints follows ``motion``'s (the root sits at another height above the hips in each rig: a
+    Mixamo ``Hips`` 7 cm, Bandai's 2 cm, a VICON root about 10 cm); with ``ik``, two-bone IK
+    (:func:`mocapviz.ik.two_bone_ik`) bends hips and knees so that the ankles land on
+    ``motion``'s, so that a planted foot stays planted when the two bodies' thighs and shins
+    differ (scale ``motion`` to ``target``'s leg length first: a leg too short for its target
+    ends straight, pointing at it).
+
+    Why the local rotations as they are, not world orientations through a rest alignment
+    (:func:`mocapviz.bodies.retarget.rest_alignment`): the two rests differ by at most 3
+    degrees at a joint with a bone (a Mixamo body aligned to the mean training rest against
+    the Bandai body; spine under 1 degree), so the rotations mean the same pose on both, the
+    mapping is its own inverse, and made-up joints keep the identity the file cannot carry
+    (:meth:`ModelRig.expressible`); through the alignment, the made-up hip stubs took an
+    18-degree turn that writing the file then dropped, and a pelvis whose hip joints lie level
+    with the root (Xsens) left the hips' alignment undefined."""
+    src_pos = motion.positions()
+    at_origin = Motion(target, motion.rotations, np.zeros((motion.n_frames, 3)), motion.fps).positions()
+    root = hip_midpoint(motion.skeleton, src_pos, legs) - hip_midpoint(target, at_origin, legs)
+    out = Motion(target, motion.rotations, root, motion.fps, name=motion.name, meta=dict(motion.meta))
+    if not ik:
+        return out
+    pos, glob = out.global_pose()
+    targets = {ankle: src_pos[:, motion.skeleton.index(ankle)] for _, _, ankle in legs}
+    rot = global_to_local(two_bone_ik(glob, pos, target, targets, legs), target.parents)
+    return Motion(target, rot, root, motion.fps, name=motion.name, meta=dict(motion.meta))
+
+
+def known_body(names, parents, which: str = "bandai", path=KNOWN_RESTS_FILE) -> Skeleton:
+    """The model skeleton (``names``, ``parents``: the model's joint tree) of a training body
+    the repository knows (``known_rests.json``, written by ``python -m data_prep known-rests``:
+    the file offsets and the dataset's rest re-basing of Bandai's skeleton), built as the
+    dataset built it (:class:`ModelRig` with that re-basing, missing joints made up): the
+    body of 90 % of the training frames, whose c^s lies 0.5 training standard deviations
+    (root mean square) from the training mean (the VICON skeletons: 1.8-3.3)."""
+    entry = json.loads(path.read_text())[which]
+    offsets = entry["offsets"]
+    file_names = [names[0]] + [n for n in names[1:] if n in offsets]
+
+    def present_parent(n):
+        p = CCNET_25_PARENTS[n]
+        while p not in file_names:
+            p = CCNET_25_PARENTS[p]
+        return file_names.index(p)
+    file_sk = Skeleton(tuple(file_names), np.array([-1] + [present_parent(n) for n in file_names[1:]]),
+                       np.array([np.zeros(3)] + [offsets[n] for n in file_names[1:]], dtype=np.float64), ())
+    rest = Motion(file_sk, np.broadcast_to(np.eye(3), (1, len(file_names), 3, 3)).copy(), np.zeros((1, 3)), 60.0)
+    alignment = {m: np.asarray(a, dtype=np.float64).reshape(3, 3) for m, a in entry["alignment"].items()}
+    return ModelRig(rest, {n: n for n in file_names}, names, parents, alignment=alignment).skeleton

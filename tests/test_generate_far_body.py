@@ -1,0 +1,167 @@
+"""A body unlike the training bodies keeps its pace and posture (generate_bvh, tasks.rig).
+
+The seed is a real walk (a Bandai test-split take, never trained on) retargeted with the
+library's retargeting onto a hand-written skeleton with Mixamo's names and proportions
+(``tests/fixtures/skeletons/mixamo_tpose.bvh``: ``mixamorig:`` names, fingers, T-pose, cm).
+``benchmarks/bench_generate_files.py`` measures the same over seconds 30-60 of a minute on
+eight such seeds; here a few seconds of the command's model and defaults.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from data_prep import zoo as repo_zoo
+from mocapviz import metrics
+from mocapviz.io.bvh import read_bvh
+from mocapviz.io.asfamc import read_asf
+from mocapviz.motion import Motion
+from mocapviz.skeleton import CCNET_25_JOINTS
+from mocapviz.skeleton_map import map_skeleton
+from mocapviz.tasks.generate_bvh import generate_from_seed, grounded, load_seed, seed_rig, vicon_legs
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL
+from mocapviz.tasks.rig import known_body, leg_length, retarget_to
+from mocapviz.training.checkpoint import load_checkpoint
+
+FIXTURES = Path(__file__).resolve().parent / "fixtures" / "skeletons"
+SOURCE = "bandai/dataset-2/dataset-2_walk_normal_019.bvh"  # a test-split take of the CCNet dataset
+# the real walks' spread of the hips -> neck lean (5th-95th percentile of the dataset's walk clips'
+# mean lean, degrees), as `python benchmarks/bench_generate_files.py` prints it
+WALK_LEAN = (2.0, 8.4)
+MIXAMO_TO_CMU = {"mixamorig:Hips": "Hips", "mixamorig:Spine": "LowerBack", "mixamorig:Spine1": "Spine",
+                 "mixamorig:Spine2": "Spine1", "mixamorig:Neck": "Neck", "mixamorig:Head": "Head",
+                 **{f"mixamorig:{s}{j}": f"{s}{j}" for s in ("Left", "Right")
+                    for j in ("UpLeg", "Leg", "Foot", "ToeBase", "Shoulder", "Arm", "ForeArm", "Hand")}}
+
+
+@pytest.fixture(scope="module")
+def checkpoint():
+    return load_checkpoint(repo_zoo.committed_path(GENERATION_MODEL))
+
+
+def _meta(checkpoint):
+    return checkpoint[2]["dataset"]
+
+
+@pytest.fixture(scope="module")
+def mixamo_seed(data_dir, checkpoint):
+    """The source take on the model's joints, scaled to the Mixamo skeleton's legs and
+    retargeted onto it (:func:`mocapviz.bodies.retarget.retarget`), 30 fps like Mixamo's files."""
+    from mocapviz.bodies.retarget import retarget
+
+    source = load_seed(data_dir / SOURCE).resample(60.0)
+    rig = seed_rig(source, map_skeleton(source.skeleton).mapping, _meta(checkpoint), checkpoint[1])
+    on_model = rig.to_model(source)
+    target = read_bvh(FIXTURES / "mixamo_tpose.bvh")
+    cmu_named = target.skeleton.renamed(MIXAMO_TO_CMU)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the source's clavicles move; retarget holds them, and says so
+        moved = retarget(on_model.scaled(leg_length(cmu_named) / leg_length(on_model.skeleton)), cmu_named)
+    return Motion(target.skeleton, moved.rotations, moved.root_positions, 60.0, name="mixamo_walk",
+                  meta={"format": "bvh", "length_unit": 0.01, "channels": target.meta["channels"]}).resample(30.0)
+
+
+def _numbers(result, start: float) -> dict:
+    """Root height above the seed's floor (ratio to the seed's), ground speed and activity
+    (ratios), the hips -> neck lean from vertical and forward from the rest's (degrees), of the
+    generated frames from ``start`` seconds on against the seed frames."""
+    m = result.rig.to_model(result.motion)
+    pos, n, fps = m.positions(), result.n_seed, m.fps
+    gen = slice(n + int(start * fps), None)
+    floor = np.median(pos[:n, :, 1].min(axis=1))
+    names = m.skeleton.names
+    v = pos[:, names.index("Neck")] - pos[:, 0]
+    rest = m.skeleton.rest_positions()
+    r = rest[names.index("Neck")] - rest[0]
+    local = metrics.local_positions(pos, m.skeleton)
+    fwd = local[:, names.index("Neck")] - local[:, 0]
+    rest_lean = np.degrees(np.arctan2(r[2], r[1]))
+    return dict(height=(m.root_positions[gen, 1] - floor).mean() / (m.root_positions[:n, 1] - floor).mean(),
+                speed=metrics.root_speed(m.root_positions[gen], fps) / metrics.root_speed(m.root_positions[:n], fps),
+                activity=metrics.activity(local[gen], fps) / metrics.activity(local[:n], fps),
+                lean=np.degrees(np.arccos(v[gen, 1] / np.linalg.norm(v[gen], axis=1))).mean(),
+                lean_from_rest=(np.degrees(np.arctan2(fwd[gen, 2], fwd[gen, 1])) - rest_lean).mean())
+
+
+@pytest.fixture(scope="module")
+def generated(mixamo_seed, checkpoint):
+    return _numbers(generate_from_seed(mixamo_seed, *checkpoint, types=["walk"], seconds=4.0), start=2.0)
+
+
+def test_mixamo_body_keeps_height_pace_and_posture(generated):
+    """Before the body detour this seed shuffled at 0.12x its ground speed, its root 16 % low
+    (7.9 cm into the floor and crouched), activity 0.38x."""
+    assert 0.95 <= generated["height"] <= 1.05, generated
+    assert 0.5 <= generated["speed"] <= 2.0, generated
+    assert 0.5 <= generated["activity"] <= 2.0, generated
+    assert generated["lean"] <= WALK_LEAN[1], generated  # not bent over
+    # leaning forward from its own rest as far as real walks lean from theirs (the training
+    # bodies' rest leans: Bandai 0 degrees, the VICON skeletons -0.7 to -7.9)
+    assert WALK_LEAN[0] <= generated["lean_from_rest"] <= WALK_LEAN[1], generated
+
+
+@pytest.mark.xfail(strict=True, reason="measured 1.0 degrees: the Mixamo rest reclines the hips -> neck vector 2.3 "
+                                       "degrees (its spine starts 1.2 cm behind the hips); the walk generated on the "
+                                       "training body leans 3.1 from its upright rest and keeps that lean from its own")
+def test_mixamo_body_leans_as_real_walks_from_vertical(generated):
+    assert WALK_LEAN[0] <= generated["lean"] <= WALK_LEAN[1], generated
+
+
+def test_own_body_of_a_vicon_file_and_a_straight_legged_one(data_dir):
+    """CMU and HDM05 skeletons keep their own rest (legs splayed as the VICON rest); a file with
+    every model joint but straight legs (3ds-Max-style names) is aligned to the training rest."""
+    for path in ("cmu/35/35_01.bvh", "cmu/91/91_02.bvh"):
+        sk = read_bvh(data_dir / path).skeleton
+        assert vicon_legs(sk, map_skeleton(sk).mapping), path
+    for actor in ("tr", "bd"):
+        sk = read_asf(data_dir / f"hdm05/{actor}/HDM_{actor}.asf").to_skeleton()
+        assert vicon_legs(sk, map_skeleton(sk).mapping), actor
+    sk = read_bvh(FIXTURES / "cmu_3dsmax.bvh").skeleton
+    mapping = map_skeleton(sk).mapping
+    assert set(mapping.values()) == set(CCNET_25_JOINTS) and not vicon_legs(sk, mapping)
+
+
+def test_known_body_is_the_dataset_bandai_body(data_dir, checkpoint):
+    """The training body rebuilt from known_rests.json is the model skeleton a Bandai file maps to."""
+    seed = load_seed(data_dir / SOURCE)
+    rig = seed_rig(seed, map_skeleton(seed.skeleton).mapping, _meta(checkpoint), checkpoint[1])
+    body = known_body(_meta(checkpoint)["joint_names"], _meta(checkpoint)["parents"])
+    assert body.names == rig.skeleton.names
+    np.testing.assert_allclose(body.offsets, rig.skeleton.offsets, atol=1e-3)
+
+
+def test_retarget_to_and_back(mixamo_seed, checkpoint):
+    """Onto another body and back: the same rotations (without IK), the hip joints' midpoint
+    followed exactly, and with IK the ankles on the source's."""
+    meta = _meta(checkpoint)
+    seed60 = mixamo_seed.resample(60.0)[:60]
+    rig = seed_rig(seed60, map_skeleton(seed60.skeleton).mapping, meta, checkpoint[1])
+    user = rig.to_model(seed60)
+    body = known_body(meta["joint_names"], meta["parents"])
+    there = retarget_to(user, body, ik=False)
+    back = retarget_to(there, rig.skeleton, ik=False)
+    np.testing.assert_allclose(back.rotations, user.rotations, atol=1e-12)
+    np.testing.assert_allclose(back.positions(), user.positions(), atol=1e-9)
+    sk = body
+
+    def mid(m):
+        return 0.5 * (m.positions()[:, sk.index("LeftUpLeg")] + m.positions()[:, sk.index("RightUpLeg")])
+    np.testing.assert_allclose(mid(there), mid(user), atol=1e-9)
+    scaled = user.scaled(leg_length(body) / leg_length(user.skeleton))
+    with_ik = retarget_to(scaled, body)
+    for ankle in ("LeftFoot", "RightFoot"):
+        err = np.linalg.norm(with_ik.positions()[:, sk.index(ankle)] - scaled.positions()[:, sk.index(ankle)], axis=-1)
+        assert err.max() < 0.01, (ankle, err.max())
+
+
+def test_grounded_puts_a_sunk_body_back_on_the_floor(mixamo_seed):
+    """A motion 10 cm under the floor comes back onto it; one on the floor stays."""
+    m = mixamo_seed.resample(60.0)
+    floor = np.median(m.positions()[..., 1].min(axis=-1))
+    sunk = Motion(m.skeleton, m.rotations, m.root_positions - [0, 0.1, 0], m.fps)
+    np.testing.assert_allclose(grounded(sunk, floor).root_positions, m.root_positions, atol=0.02)
+    assert np.abs(grounded(m, floor).root_positions[:, 1] - m.root_positions[:, 1]).max() < 0.02
