@@ -180,12 +180,21 @@ def load_checkpoints(ds, paths: dict) -> dict:
     return models
 
 
+def mean_cycle(chi_train: np.ndarray):
+    """The baseline that does nothing: every cycle rebuilt as the training cycles' mean chi (meshed
+    on the cycle's own beta)."""
+    mean = np.asarray(chi_train, dtype=np.float32).mean(0)
+    return lambda chi, beta: np.broadcast_to(mean, chi.shape).copy()
+
+
 def reconstruction_errors(ds, models: dict, body=None, pca_latent: int | None = None,
-                          progress: bool = False, with_pca: bool = True) -> dict[tuple[str, str], np.ndarray]:
+                          progress: bool = False, with_pca: bool = True,
+                          with_probes: bool = False) -> dict[tuple[str, str], np.ndarray]:
     """Per-sequence mean vertex errors (mm) of PCA ("pca", unless ``with_pca`` is False) and of
     each CVAE (name -> model) on each test set: {(model, test set): errors}. PCA's latent size is
     ``pca_latent`` (default: that of the first model) + dim(beta), capped by the training rank
-    (:class:`PCABaseline`)."""
+    (:class:`PCABaseline`). ``with_probes`` adds the training-mean cycle ("mean_cycle"), the
+    baseline that does nothing."""
     from tqdm.auto import tqdm
 
     from mocapviz.bodies.anny_model import body_model
@@ -198,6 +207,8 @@ def reconstruction_errors(ds, models: dict, body=None, pca_latent: int | None = 
         train_idx, _ = split_indices(ds)
         recon["pca"] = PCABaseline(ds.chi[train_idx], ds.beta[train_idx], latent).reconstruct
     recon.update({n: (lambda chi, beta, m=m: reconstruct_cvae(m, chi, beta)) for n, m in models.items()})
+    if with_probes:
+        recon["mean_cycle"] = mean_cycle(ds.chi[split_indices(ds)[0]])
     errors = {}
     for t, idx in tqdm(test_sets(ds).items(), desc="reconstruction errors", disable=not progress):
         chi_hats = {name: fn(ds.chi[idx], ds.beta[idx]) for name, fn in recon.items()}
