@@ -34,7 +34,7 @@ from mocapviz.skeleton import Skeleton, SkeletonMapError
 from mocapviz.skeleton_map import map_skeleton
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.generation_defaults import PACE, SAMPLING_TEMPERATURE
-from mocapviz.tasks.rig import ModelRig, known_body, leg_length, retarget_to
+from mocapviz.tasks.rig import ModelRig, floor_height, grounded, known_body, leg_length, retarget_to
 
 BODIES = ("auto", "own", "training")  # what generate_from_seed(body=...) accepts
 STANDARD_ORDERS = ("ZXY", "ZYX")  # rotation channel orders every BVH tool reads (Blender, MotionBuilder)
@@ -189,26 +189,6 @@ def generation_body(rig: ModelRig, dataset_meta: dict, body: str = "auto"):
     k = leg_length(rig.skeleton) / leg_length(trained)
     return Skeleton(trained.names, trained.parents, k * trained.offsets, tuple((j, tuple(k * np.asarray(o)))
                                                                              for j, o in trained.end_sites))
-
-
-def floor_height(positions: np.ndarray) -> float:
-    """The floor (m) under frames of joint positions (F, J, 3), Y up: the median over frames of
-    the lowest joint's height (a planted toe or heel)."""
-    return float(np.median(positions[..., 1].min(axis=-1)))
-
-
-def grounded(motion: Motion, floor: float, seconds: float = 1.0) -> Motion:
-    """``motion`` raised or lowered, frame by frame, so that the running median over ``seconds``
-    of its lowest joint's height stays at ``floor`` (m), the correction smoothed over as long
-    again (a step's heel-toe roll and a hop's flight do not move it)."""
-    low = motion.positions()[..., 1].min(axis=-1)
-    n = max(1, int(round(seconds * motion.fps)))
-    pad = np.pad(low, (n // 2, n - 1 - n // 2), mode="edge")
-    running = np.median(np.lib.stride_tricks.sliding_window_view(pad, n), axis=-1)
-    shift = np.convolve(np.pad(floor - running, (n // 2, n - 1 - n // 2), mode="edge"), np.ones(n) / n, mode="valid")
-    root = motion.root_positions.copy()
-    root[:, 1] += shift
-    return replace(motion, root_positions=root, meta={**motion.meta, "grounded_shift": shift})
 
 
 def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk",), seconds: float = 10.0,

@@ -46,6 +46,7 @@ generates a body unlike the training bodies on the training body the repository 
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -354,3 +355,23 @@ def known_body(names, parents, which: str = "bandai", path=KNOWN_RESTS_FILE) -> 
     rest = Motion(file_sk, np.broadcast_to(np.eye(3), (1, len(file_names), 3, 3)).copy(), np.zeros((1, 3)), 60.0)
     alignment = {m: np.asarray(a, dtype=np.float64).reshape(3, 3) for m, a in entry["alignment"].items()}
     return ModelRig(rest, {n: n for n in file_names}, names, parents, alignment=alignment).skeleton
+
+
+def floor_height(positions: np.ndarray) -> float:
+    """The floor (m) under frames of joint positions (F, J, 3), Y up: the median over frames of
+    the lowest joint's height (a planted toe or heel)."""
+    return float(np.median(positions[..., 1].min(axis=-1)))
+
+
+def grounded(motion: Motion, floor: float, seconds: float = 1.0) -> Motion:
+    """``motion`` raised or lowered, frame by frame, so that the running median over ``seconds``
+    of its lowest joint's height stays at ``floor`` (m), the correction smoothed over as long
+    again (a step's heel-toe roll and a hop's flight do not move it)."""
+    low = motion.positions()[..., 1].min(axis=-1)
+    n = max(1, int(round(seconds * motion.fps)))
+    pad = np.pad(low, (n // 2, n - 1 - n // 2), mode="edge")
+    running = np.median(np.lib.stride_tricks.sliding_window_view(pad, n), axis=-1)
+    shift = np.convolve(np.pad(floor - running, (n // 2, n - 1 - n // 2), mode="edge"), np.ones(n) / n, mode="valid")
+    root = motion.root_positions.copy()
+    root[:, 1] += shift
+    return replace(motion, root_positions=root, meta={**motion.meta, "grounded_shift": shift})
