@@ -14,7 +14,7 @@
 # ---
 
 # %% tags=["parameters"]
-QUICK = True  # quick: 7 subjects (CMU 07/09/35, HDM05 bd/mm, Bandai 1/2), 2 clips per type; full: every clip
+QUICK = True  # quick: 7 subjects (CMU 07/09/35, HDM05 bd/tr, Bandai 1/2), 2 clips per type; full: every clip
 FIG_DIR = "../figures"
 
 # %% [markdown]
@@ -245,10 +245,12 @@ save_figure(fig, fig_dir / "body4d_fig_rejected.png")
 # %% [markdown]
 # ## The split, the scales, and the counts by source and type
 #
-# Like the paper (whole AMASS sources held out for test), one source is held out entirely —
-# HDM05: five men jogging and sneaking whom the model never sees — plus two subjects of the
-# training sources, CMU 35 (walk) and CMU 09 (run), so walking is in test. Bandai trains (its
-# actors are not recorded, so none can be held out). The column `test_set` says which test set a
+# The paper holds out whole AMASS sources; ours would leave one source's few cycles in test and
+# take its bodies out of training. Instead every body trains but three: the real cycles of HDM05
+# `tr`, CMU 35 (walk) and CMU 09 (run) are held out (`held_out_subjects`); Bandai's takes are
+# spread over the training bodies (column `body`), and a share of them is held out on Bandai's
+# body (`held_out_takes`) and on a held-out body (`held_out_bodies`); another share validates
+# (`split == "val"`). See `data_prep/body4d_splits.py`. The column `test_set` says which test set a
 # cycle belongs to; `mirrored` flags augmentation copies, which `ds.indices("test")` leaves out of
 # every test metric. $\Gamma$'s scale is the **training** cycles' largest $|\Gamma|$ per axis;
 # test cycles may exceed 1.
@@ -293,8 +295,8 @@ display(Image(filename=str(fig_dir / "body4d_fig_cycles.png")))
 #
 # The paper's data is 13 121 AMASS cycles of hundreds of subjects, its test sets whole AMASS
 # sources. Ours is the count printed above (full build: every locomotion take of Bandai plus the
-# CMU and HDM05 clips) of 16 mocap bodies and one Bandai body; the held-out source is HDM05, the
-# held-out subjects CMU 35 and 09. The types the paper interpolates are in the training data:
+# CMU and HDM05 clips) of 16 mocap bodies and one Bandai body; the held-out subjects are HDM05 tr,
+# CMU 35 and 09. The types the paper interpolates are in the training data:
 # run and walk, walk-back and walk, left and right turns (Bandai). Side steps are not: the shared
 # data has none. The representation is the paper's with anny in place of SMPL: 21 joints instead
 # of 20 (we drop joints that never move in the sources, and the hands), $\beta \in \mathbb{R}^6$

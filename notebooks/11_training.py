@@ -79,8 +79,9 @@ pd.set_option("display.width", 160)
 # ## The data and its representation
 #
 # The dataset of notebook 10 (quick mode: its small build). Training uses the cycles whose
-# `split` is `train`; the others form the test sets of the `test_set` column (held-out source
-# HDM05, held-out subjects CMU 35 and 09, held-out Bandai takes), mirrored copies left out.
+# `split` is `train`; `val` cycles choose the epoch kept; the `test` ones form the test sets of the
+# `test_set` column (held-out subjects HDM05 tr, CMU 35 and 09; held-out Bandai takes on Bandai's
+# body and on a held-out subject's body), mirrored copies left out.
 
 # %%
 body = body_model()
@@ -137,7 +138,7 @@ print("this notebook's dataset is the one they were trained on:",
 #
 # Top: the adaptive weights per epoch (they sum to the number of tasks). Bottom: each task's
 # training loss (squared L2 per cycle, normalised $\chi$ units in phase 1, m² summed over the
-# mesh in phase 2) and, every few epochs, the same loss on the held-out cycles (z = μ).
+# mesh in phase 2) and, every few epochs, the same loss on the validation cycles (z = μ).
 
 # %%
 fig, axes = plt.subplots(2, 2, figsize=(13, 7))
@@ -145,10 +146,10 @@ for col, (log, phase) in enumerate(((log1, 1), (log2, 2))):
     for task in TASKS[phase]:
         axes[0, col].plot(log["epoch"], log[f"w_{task}"], label=f"ω_{task}")
         line, = axes[1, col].semilogy(log["epoch"], log[task], label=f"{task} (train)")
-        held = log.dropna(subset=[f"held_{task}"]) if f"held_{task}" in log else None
+        held = log.dropna(subset=[f"val_{task}"]) if f"val_{task}" in log else None
         if held is not None and len(held):
-            axes[1, col].semilogy(held["epoch"], held[f"held_{task}"], "--", color=line.get_color(),
-                                  label=f"{task} (held out)")
+            axes[1, col].semilogy(held["epoch"], held[f"val_{task}"], "--", color=line.get_color(),
+                                  label=f"{task} (validation)")
     axes[0, col].set(title=f"phase {phase}: GradNorm weights", xlabel="epoch")
     axes[1, col].set(title=f"phase {phase}: task losses", xlabel="epoch")
     axes[0, col].legend(fontsize=8)

@@ -27,8 +27,8 @@ FIG_DIR = "../figures"
 #
 # - Fig. 5: PCA on $[\chi, \beta]$ with $\dim z + \dim\beta$ components (scikit-learn; rebuilt with
 #   the true $\beta$, §4.4) against the CVAE after phase 1 and after phase 2, on each test set
-#   of the full dataset (held-out source HDM05, held-out subjects CMU 35 and 09, held-out Bandai
-#   takes);
+#   of the full dataset (held-out Bandai takes on Bandai's body and on held-out bodies; the real
+#   cycles of the held-out subjects HDM05 tr, CMU 35 and 09);
 # - Fig. 3: the latent dimension, 8 / 16 / 32 / 64 / 128 (the paper keeps 64: the error stops
 #   falling there);
 # - Fig. 4: the KL weight, 0.001 / 0.01 / 0.1 (smaller fits better; the paper keeps 0.01 for
