@@ -185,9 +185,11 @@ print("first 0.1 s after the observed window (full table, mean mm):",
 # represents held-out cycles at all (notebook 12's reconstruction errors, printed below), but a
 # whole cycle is decoded at once, so its error need not grow with t. Where it does not stay below,
 # the causes are ours (printed below): far fewer training cycles and subjects than the paper's
-# AMASS, a CPU-sized decoder trained for few epochs, anny instead of SMPL, and held-out HDM05 jogs
-# and sneaks of types no training cycle has. Our Residual-sup is small too (the GRU units printed
-# above, trained for minutes on one CPU core; Martinez used 1,024 units).
+# AMASS, a CPU-sized decoder trained for few epochs, anny instead of SMPL. Our Residual-sup is
+# small too (the GRU units printed above, trained for minutes on one CPU core; Martinez used
+# 1,024 units). **The committed table is older than the committed models**: it was made with
+# the previous CVAE on the previous dataset build (409 held-out cycles, HDM05 held out as a
+# source) and has not been redone; `python -m data_prep cvae4d-prediction --table` remakes it.
 
 # %%
 recon = pd.read_csv(REPO_ROOT / "results" / "cvae4d_reconstruction.csv")
