@@ -7,6 +7,7 @@
 #       extension: .py
 #       format_name: percent
 #       format_version: '1.3'
+#       jupytext_version: 1.19.6
 #   kernelspec:
 #     display_name: Python 3 (ipykernel)
 #     language: python
@@ -165,7 +166,8 @@ def beside_paper(table: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out).T.rename_axis(["M", "frames"]).unstack("frames")
 
 
-print("committed table (full mode; n cycles per cell:", committed.n.max(), "): ours (paper), mm")
+print("committed table (full mode; n cycles per cell:", committed.n.max(), "): ours (paper), mm -- made with the "
+      "previous cvae4d_phase2 on the previous dataset build, not redone for the committed model (results/README.md)")
 display(beside_paper(committed))
 print("this run (quick mode)" if QUICK else "this run (full mode)")
 display(beside_paper(quick_table))
