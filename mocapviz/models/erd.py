@@ -33,7 +33,10 @@ class ERD(BaselineModel):
     # paper: Fragkiadaki's 500-unit encoder and Lee et al.'s 4 x 1024 LSTM layers
     SIZES = {"quick": dict(encoder=128, hidden=128, decoder=128),
              "default": dict(encoder=128, hidden=128, decoder=128),
-             "paper": dict(encoder=500, hidden=1024, decoder=500)}
+             "paper": dict(encoder=500, hidden=1024, decoder=500),
+             # CCNet's ablation "SRBs replaced by LSTMs" (paper §4.8.3: 1 or 2 layers of 512)
+             "lstm1x512": dict(encoder=128, hidden=512, layers=1, decoder=128),
+             "lstm2x512": dict(encoder=128, hidden=512, layers=2, decoder=128)}
 
     def __init__(self, cfg: ERDConfig):
         super().__init__()

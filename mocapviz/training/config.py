@@ -29,13 +29,15 @@ class TrainConfig:
     size: str = "default"           # model size name (mocapviz.models.ccnet_config.SIZES)
     steps: int = 4000               # optimiser steps
     batch_size: int = 32            # windows per step (split across ranks under DDP)
-    window: int = 60                # frames per window, NCF (must not exceed the dataset's window)
+    window: int = 60                # frames per window, NCF
+    eval_window: int = 0            # frames per validation and test window (0: ``window``)
     lr: float = 1e-4                # learning rate at step 0
     lr_final: float = 1e-6          # learning rate at the last step (exponential decay in between)
     noise_std: float = 0.03         # std of the i.i.d. noise added to the normalised inputs
     lambdas: tuple[float, float, float] = LAMBDAS  # loss weights of smoothness, contacts, c^d (Eq. 6)
     dilations: tuple[int, ...] = (2,) * 20  # one dilation per SRB
     dropout: float = 0.5            # dropout on the input frames
+    hidden_inputs: tuple[str, ...] = ()  # inputs the model never sees (WindowData.HIDEABLE), for ablations
     residual: bool = False          # the network predicts x_{t+1} - x_t (CCNetConfig.residual)
     feedback_passes: int = 0        # inputs of the window's second half: the model's own means, k passes
     latent: int = 0                 # size of CCNet's latent z (CCNetConfig.latent; 0: the paper's)
@@ -78,6 +80,7 @@ class TrainConfig:
         d = drop_removed_options(json.loads(s) if isinstance(s, str) else dict(s), REMOVED_OPTIONS, "TrainConfig")
         d["lambdas"], d["dilations"] = tuple(d["lambdas"]), tuple(d["dilations"])
         d["body_scale"] = tuple(d.get("body_scale", ()))
+        d["hidden_inputs"] = tuple(d.get("hidden_inputs", ()))
         return cls(**d)
 
 

@@ -19,11 +19,25 @@ class WindowData:
     batches; a batch's keys are the models' ``input_names`` plus the targets.
     """
 
-    def __init__(self, ds, window: int, normaliser=None, phase: bool = False):
+    # inputs an ablation can hide (TrainConfig.hidden_inputs): "rotations" the joint rotations and
+    # angular velocities of x_t (paper §4.8.2 "w/o ROT"), "skeleton" c^s ("w/o SK")
+    HIDEABLE = ("rotations", "skeleton")
+
+    def __init__(self, ds, window: int, normaliser=None, phase: bool = False, hidden_inputs=()):
+        unknown = set(hidden_inputs) - set(self.HIDEABLE)
+        if unknown:
+            raise ValueError(f"cannot hide {sorted(unknown)}: choose from {self.HIDEABLE}")
         norm = normaliser or ds.normaliser
         self.window = window
         self.layout = ds.layout
         self.x = torch.from_numpy(norm.norm_x(ds.x))
+        # a hidden input is its training mean (0 normalised) in every window the model reads, so the
+        # network cannot see it; the targets keep it (the loss stays the same sum, comparable)
+        self._x_shown = torch.ones(self.x.shape[1])
+        if "rotations" in hidden_inputs:
+            b = self.layout.x_blocks
+            self._x_shown[b["rot"]] = self._x_shown[b["angvel"]] = 0.0
+        self._skel_shown = 0.0 if "skeleton" in hidden_inputs else 1.0
         traj = norm.norm_traj(ds.traj)
         if phase:  # c^d gains the local phase (sin, cos), unnormalised (CCNetConfig.phase)
             traj = np.concatenate([traj, clip_phases(ds)], axis=1)
@@ -55,7 +69,8 @@ class WindowData:
     def to(self, device) -> "WindowData":
         """Move the arrays to ``device`` (a GPU keeps the whole dataset: 0.5 GB for dataset v4),
         so a batch is a gather there, not a copy from host memory. Returns self."""
-        for name in ("x", "traj", "skel", "varying", "types", "_x_grow", "_x_k", "_traj_grow", "_traj_k", "_skel_k"):
+        for name in ("x", "traj", "skel", "varying", "types", "_x_grow", "_x_k", "_traj_grow", "_traj_k", "_skel_k",
+                     "_x_shown"):
             setattr(self, name, getattr(self, name).to(device))
         return self
 
@@ -86,5 +101,6 @@ class WindowData:
         clip = torch.from_numpy(pairs[:, 0]).to(self.x.device)
         g = self.clip_start[pairs[:, 0]] + pairs[:, 1]
         idx = torch.from_numpy(g[:, None] + np.arange(self.window)[None]).to(self.x.device)
-        return dict(x=self.x[idx], traj=self.traj[idx + 1], skel=self.skel[clip], types=self.types[clip],
-                    target_x=self.x[idx + 1], target_traj=self.traj[idx + 2], varying=self.varying)
+        return dict(x=self.x[idx] * self._x_shown, traj=self.traj[idx + 1], skel=self.skel[clip] * self._skel_shown,
+                    types=self.types[clip], target_x=self.x[idx + 1], target_traj=self.traj[idx + 2],
+                    varying=self.varying)
