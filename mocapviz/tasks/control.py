@@ -1,13 +1,14 @@
 """Interactive control (paper §4.4): keys -> per-frame controls -> CCNet one frame at a time.
 
-Two pure functions and a step-level generator:
+A pure function, a control source and a step-level generator:
 
 - :func:`plan_controls`: key events -> per-frame motion-type label (number keys; the new label is
   blended in linearly over 20 frames), requested speed v_u (up/down; it moves to the new value
   over 20 frames) and turn (+1 left / -1 right on frames the key is down).
-- :func:`steer`: the model's predicted c^d (six future root points, heading frame, metres) bent by
-  a turn, o_n = [1, 0] h 0.015 added to point i with weight w_i = i/5 (i = 0..5; h the root
-  height; +X is the character's left), then rescaled to v_u: the segments between the points are
+- :func:`mocapviz.tasks.controls.steer` (the source :class:`~mocapviz.tasks.controls.Steered`):
+  the model's predicted c^d (six future root points, heading frame, metres) bent by a turn,
+  o_n = [1, 0] h 0.015 added to point i with weight w_i = i/5 (i = 0..5; h the root height; +X
+  is the character's left), then rescaled to v_u: the segments between the points are
   multiplied by v_u / v_cur, v_cur being the path length of the six points over their one second.
 - :class:`ControlSession`: CCNet (or any model of the protocol) fed its own frames, with type,
   turn and speed allowed to change between any two frames; without keys it runs on its own
@@ -20,16 +21,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mocapviz.features.ccnet import FPS, TRAJ_STEPS, integrate_root
+from mocapviz.features.ccnet import integrate_root
 from mocapviz.features.motion_types import MOTION_TYPES
+from mocapviz.tasks.controls import Steered
+from mocapviz.tasks.controls import path_speed, steer  # noqa: F401 - re-exported: the keyboard control's API
 
 # The paper's keys 1-5 are walk, run, jump (left foot), jump (right foot), jump (both feet); our
 # vocabulary has no one-footed jumps, so 3-5 are its other locomotion types.
 KEY_TYPES = {"1": "walk", "2": "jog", "3": "hop", "4": "dash", "5": "walk_back"}
 BLEND_FRAMES = 20      # label blend and speed change, frames (paper §4.4)
-TURN_GAIN = 0.015      # o_n = [1, 0] * h * 0.015
 SPEED_STEP = 0.5       # m/s per up/down press (the paper does not say)
-TURN_WEIGHTS = np.arange(6) / 5.0   # w_i = i / 5, i = 0..5
 
 
 @dataclass(frozen=True)
@@ -84,28 +85,6 @@ def plan_controls(events, n_frames: int, start_type: int, n_types: int, start_sp
     return ControlPlan(types, speed, turn)
 
 
-def path_speed(traj: np.ndarray) -> np.ndarray:
-    """v_cur (...,) m/s: length of the polyline root -> six c^d points (..., 12), over its seconds."""
-    p = np.concatenate([np.zeros(traj.shape[:-1] + (1, 2)), traj.reshape(traj.shape[:-1] + (6, 2))], -2)
-    return np.linalg.norm(np.diff(p, axis=-2), axis=-1).sum(-1) / (TRAJ_STEPS[-1] / FPS)
-
-
-def steer(traj: np.ndarray, turn: float, speed: float, root_height: float) -> np.ndarray:
-    """c^d (12,) raw (heading frame, metres) after a turn (+1 left, -1 right) and a speed
-    request ``speed`` (m/s; NaN keeps the speed). A standing path (v_cur ~ 0) asked to move
-    goes straight ahead at that speed."""
-    p = np.asarray(traj, dtype=np.float64).reshape(6, 2).copy()
-    p[:, 0] += turn * root_height * TURN_GAIN * TURN_WEIGHTS
-    if not np.isnan(speed):
-        v_cur = path_speed(p.reshape(-1))
-        if v_cur > 1e-3:
-            seg = np.diff(np.concatenate([np.zeros((1, 2)), p]), axis=0) * (speed / v_cur)
-            p = np.cumsum(seg, axis=0)
-        else:
-            p = np.stack([np.zeros(6), speed * np.asarray(TRAJ_STEPS) / FPS], 1)
-    return p.reshape(-1).astype(np.float32)
-
-
 class ControlSession:
     """One character generated frame by frame under changing controls.
 
@@ -119,14 +98,13 @@ class ControlSession:
         )
         self.gen = Generator(model, normaliser, batch=1, sample=sample, seed=seed, backend="numpy")
         self.norm = normaliser
-        self.skel_n = normaliser.norm_skel(np.asarray(skel, np.float32)[None])
-        self.root_height = float(skel[0])
         self.frames = [normaliser.norm_x(np.asarray(f, np.float32)[None])[0] for f in seed_x]
         self.n_seed = len(seed_x)
         self.controls: list[np.ndarray] = []     # raw c^d fed for each generated frame
-        self.gen.stepper.reset()
-        self.gen._z_past = []
-        self._set_types(np.asarray(types, np.float32))
+        self.steered = Steered(float(skel[0]))   # the root height h scales the turn
+        self.steered.start(normaliser, self.gen.layout, 1, self.n_seed)
+        self.types = np.asarray(types, np.float32)
+        self.gen.reset(normaliser.norm_skel(np.asarray(skel, np.float32)[None]), self.types[None])
         # a phase model (CCNetConfig.phase) sees the seed's local phase, then the phase turning on
         # at the seed's pace, as the Generator's default (features.phase.paced_phase)
         self.phase = None
@@ -134,16 +112,11 @@ class ControlSession:
             from mocapviz.features.phase import seed_phase
             usual = getattr(self.gen.type_prior, "phase_hz", None)
             self.phase, self.pace = seed_phase(np.asarray(seed_x, np.float32), self.gen.layout,
-                                               fallback_hz=None if usual is None else usual[self.gen._type_index[0]])
+                                               fallback_hz=None if usual is None else usual[self.gen.type_index[0]])
         seed_n = normaliser.norm_traj(np.asarray(seed_traj, np.float32))
         for t in range(self.n_seed - 1):   # teacher-forced seed: frame t with the seed's c^d_{t+1}
-            raw = self.gen._step(self.frames[t][None], self._with_phase(seed_n[t + 1][None], t + 1), t)
-        self.pred_traj = raw[:, self.gen.parts["traj_mean"]].copy()   # the model's next c^d, normalised
-
-    def _set_types(self, types: np.ndarray) -> None:
-        self.types = types
-        self.gen.stepper.set_static(self.skel_n, types[None])
-        self.gen._type_index = types[None].argmax(1)   # the type prior's
+            _, self.pred_traj = self.gen.advance(self.frames[t][None], self._with_phase(seed_n[t + 1][None], t + 1),
+                                                 t, write=False)   # the model's next c^d, normalised
 
     def _with_phase(self, c: np.ndarray, frame: int) -> np.ndarray:
         """c^d (1, 12) of ``frame`` with a phase model's phase appended (1, 14)."""
@@ -160,14 +133,13 @@ class ControlSession:
     def step(self, types=None, turn: float = 0.0, speed: float = np.nan) -> np.ndarray:
         """One frame under the given controls; returns it raw (n_x,)."""
         if types is not None and not np.array_equal(types, self.types):
-            self._set_types(np.asarray(types, np.float32))
-        c = steer(self.predicted_traj(), turn, speed, self.root_height)
-        self.controls.append(c)
-        nxt = np.zeros((1, len(self.frames[0])), np.float32)
+            self.types = np.asarray(types, np.float32)
+            self.gen.set_types(self.types[None])
         t = len(self.frames) - 1
-        raw = self.gen._step(self.frames[-1][None], self._with_phase(self.norm.norm_traj(c)[None], t + 1), t)
-        self.gen.cfg.add_residual(raw[:, self.gen.parts["mean"]], self.frames[-1][None])   # a residual model's x_t
-        self.pred_traj = self.gen._write_next(raw, nxt).copy()
+        self.steered.set(turn, speed)
+        c = self.steered.next(t, self.frames[-1][None], self.pred_traj)
+        self.controls.append(self.steered.raw[0])
+        nxt, self.pred_traj = self.gen.advance(self.frames[-1][None], self._with_phase(c, t + 1), t)
         self.frames.append(nxt[0])
         return self.norm.denorm_x(nxt)[0]
 

@@ -5,14 +5,15 @@ the predicted Gaussian (or a sample from it) with the predicted contact labels, 
 next input. A CCNet with a latent (``CCNetConfig.latent``) samples its z from the prior instead
 (its type prior given the motion type when it has one: :mod:`mocapviz.models.type_prior`; per
 frame, or per knot every ``latent_hold`` frames, held or blended: ``latent_lerp``) and writes the
-decoder's mean (the prior's mean z for the mean output). The trajectory
-control c^d comes from one of:
+decoder's mean (the prior's mean z for the mean output).
 
-- ``traj``: an array of raw c^d per frame (e.g. taken from a clip; repeated cyclically);
-- ``path``: a user path of world ground points (X, Z) per frame; c^d is recomputed every frame
-  from the character's integrated root and heading, so the character steers onto the path;
-- neither: the network's own predicted c^d (free-running, the paper's interactive fallback), as
-  predicted or (``pace="seed"``) scaled to the speed of the seed's last c^d (:func:`at_speed`).
+The trajectory control c^d comes from a control source (:mod:`mocapviz.tasks.controls`): a
+clip's c^d repeated (``ClipControls``), a user path the character steers onto
+(``PathControls``), the network's own prediction (``FreeRunning``, the default: as predicted or
+held at the seed's pace) or a steered one (``Steered``, the interactive control); the seed's own
+c^d, where given, is fed over it on the seed frames. :meth:`Generator.run` makes whole sequences;
+:meth:`Generator.reset`, :meth:`~Generator.set_types` and :meth:`~Generator.advance` are its
+single steps (used by :class:`mocapviz.tasks.control.ControlSession`).
 
 A CCNet with a phase (``CCNetConfig.phase``) sees the seed's local phase
 (:func:`mocapviz.features.phase.paced_phase`, from the seed frames alone), then the phase turning
@@ -30,13 +31,14 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from mocapviz.features.ccnet import FPS, TRAJ_STEPS, FeatureLayout, Normaliser, features_to_motion
+from mocapviz.features.ccnet import FPS, FeatureLayout, Normaliser, features_to_motion
 from mocapviz.features.phase import on_circle, paced_phase
-from mocapviz.heading import from_heading_frame_xz, to_heading_frame_xz
 from mocapviz.ik import remove_foot_sliding
 from mocapviz.models.ccnet import CCNet
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
+from mocapviz.tasks.controls import ClipControls, ControlSource, FreeRunning, PathControls
+from mocapviz.tasks.controls import at_speed, path_controls, plan_speed  # noqa: F401 - re-exported: the generation API
 from mocapviz.tasks.generation_defaults import PACES
 
 
@@ -52,33 +54,6 @@ class Generated:
         x = self.x[i] if include_seed else self.x[i, self.n_seed:]
         m = features_to_motion(x, skeleton, start_root, start_heading, FPS, name=name)
         return remove_foot_sliding(m, m.meta["contacts"]) if ik else m
-
-
-def plan_speed(c_d: np.ndarray) -> np.ndarray:
-    """Ground speed (m/s) a raw c^d (B, >= 12) plans: the length of the path through its six
-    points (root, then 10, 20, ..., 60 frames ahead), over the one second they span."""
-    pts = np.concatenate([np.zeros((len(c_d), 1, 2), np.float32), c_d[:, :2 * len(TRAJ_STEPS)].reshape(len(c_d), -1, 2)], 1)
-    return np.linalg.norm(np.diff(pts, axis=1), axis=-1).sum(1) * FPS / TRAJ_STEPS[-1]
-
-
-# plans slower than this (m/s) have no direction to keep: at_speed scales them by pace / this at most
-MIN_PLAN_SPEED = 0.05
-
-
-def at_speed(c_d: np.ndarray, speed: np.ndarray) -> np.ndarray:
-    """Raw c^d (B, 12) with its six points scaled about the root so that it plans ``speed`` (B,)
-    m/s: the paper's interactive velocity control (§4.4: the points' spacing times v_u / v_cur)."""
-    ratio = speed / np.maximum(plan_speed(c_d), MIN_PLAN_SPEED)
-    out = c_d.copy()
-    out[:, :2 * len(TRAJ_STEPS)] *= ratio[:, None].astype(np.float32)
-    return out
-
-
-def path_controls(path_xz: np.ndarray, n: int, root_xz: np.ndarray, heading: np.ndarray) -> np.ndarray:
-    """c^d (B, 12) at frame n: path points n+10..n+60 relative to the root, in its heading frame."""
-    idx = np.minimum(n + np.asarray(TRAJ_STEPS), path_xz.shape[1] - 1)
-    d = path_xz[:, idx] - root_xz[:, None]                     # (B, 6, 2) world X, Z
-    return to_heading_frame_xz(d, heading[:, None]).reshape(len(d), -1)
 
 
 class Generator:
@@ -116,12 +91,8 @@ class Generator:
         if phase_source not in ("seed_pace", "network"):
             raise ValueError(f"phase_source must be 'seed_pace' or 'network', got {phase_source!r}")
         self.phase_source = phase_source
-        # the ground speed of a free-running plan (the network's own c^d): "network", as predicted;
-        # "seed", rescaled every frame to the speed of the c^d the last seed frame was fed (at_speed:
-        # the paper's interactive velocity control, §4.4, with the user's speed the seed's), until
-        # the character's motion type changes (a run after a walk has its own pace). Why: fed
-        # back, the predicted plan slows (measured: ccnet_phase_lerp's test run seed at 0.27x the real
-        # runs' ground speed over seconds 30-60; held, 0.84x)
+        # the ground speed of the default control source, the network's own c^d (controls.FreeRunning):
+        # "network", as predicted; "seed", held at the seed's last plan speed until the type changes
         if pace not in PACES:
             raise ValueError(f"pace must be one of {PACES}, got {pace!r}")
         self.pace = pace
@@ -140,6 +111,7 @@ class Generator:
         # average of all types (measured: the waving stepped its feet in place)
         self.type_prior = getattr(model, "type_prior", None) if type_prior and self.latent else None
         self._type_index = None
+        self._skel_n = None  # the characters' normalised c^s (reset)
         if self.backend == "numpy":
             self._plain_step = st.step
             if self.latent:
@@ -208,51 +180,75 @@ class Generator:
         self._noise = e
         return e
 
-    def run(self, seed_x: np.ndarray, skel: np.ndarray, types: np.ndarray, n_frames: int,
-            traj: np.ndarray | None = None, path: np.ndarray | None = None,
-            seed_traj: np.ndarray | None = None, start_root=None, start_heading=None,
-            progress: bool = False) -> Generated:
-        """seed_x (B, S, n_x) raw seed frames; skel (B, n_skel) raw c^s; types (B, n_types) or
-        (B, S + n_frames, n_types); traj (B, T_c, 12) raw c^d indexed by frame (repeated
-        cyclically); path (B, T_p, 2) world X/Z per frame (needs start_root (B, 3) and
-        start_heading (B,) of the frame before the seed, as the clip's); seed_traj (B, S, 12) raw
-        c^d of the seed frames (default, and in its NaN rows: from ``traj``, ``path``, or the network's
-        prediction)."""
-        from tqdm.auto import tqdm
-        with torch.inference_mode():
-            return self._run(seed_x, skel, types, n_frames, traj, path, seed_traj, start_root,
-                             start_heading, progress, tqdm)
-
-    def _run(self, seed_x, skel, types, n_frames, traj, path, seed_traj, start_root, start_heading,
-             progress, tqdm) -> Generated:
-        b, s = seed_x.shape[:2]
-        total = s + n_frames
-        norm = self.norm
-        skel_n = norm.norm_skel(skel)
-        types = np.asarray(types, dtype=np.float32)
-        per_frame_types = types.ndim == 3
-        cur_type = types[:, 0] if per_frame_types else types
+    def reset(self, skel_n: np.ndarray, types: np.ndarray) -> None:
+        """Start new characters: the stepper's history, the noise and z cleared; ``skel_n``
+        (B, n_skel) normalised c^s and ``types`` (B, n_types) their c^t (:meth:`set_types`)."""
         self.stepper.reset()
         self.raw_outputs = []
         self._noise = None
         self._z_past = []  # the last two knots of z, newest first (blended between)
-        stepper_static = (lambda sk, ty: self.stepper.set_static(torch.from_numpy(sk), torch.from_numpy(ty))) \
-            if self.backend == "torch" else self.stepper.set_static
+        self._skel_n = skel_n
+        self.set_types(types)
 
-        def set_static(sk, ty):
-            stepper_static(sk, ty)
-            self._type_index = ty.argmax(1)  # the type prior's (one-hot types)
-        set_static(skel_n, cur_type)
+    def set_types(self, types: np.ndarray) -> None:
+        """The motion types c^t (B, n_types) float32 from the next step on."""
+        if self.backend == "torch":
+            self.stepper.set_static(torch.from_numpy(self._skel_n), torch.from_numpy(types))
+        else:
+            self.stepper.set_static(self._skel_n, types)
+        self._type_index = types.argmax(1)  # the type prior's (one-hot types)
+
+    @property
+    def type_index(self) -> np.ndarray | None:
+        """(B,) each character's motion type index (the largest entry of its c^t)."""
+        return self._type_index
+
+    def advance(self, x_t: np.ndarray, c_next: np.ndarray, t: int, write: bool = True):
+        """One step from frame t (B, n_x) and c^d_{t+1} (B, n_traj), both normalised: (frame t+1
+        (B, n_x) normalised, or None without ``write`` (teacher-forced seed frames), and the c^d
+        the network predicts for frame t+2, normalised). A residual model's x_t is added here."""
+        raw = self._step(x_t, c_next, t)
+        # a view of raw: the residual channels get g x_t added in place
+        self.cfg.add_residual(raw[:, self.parts["mean"]], x_t)
+        if self.keep_outputs:
+            self.raw_outputs.append(raw.copy())
+        if not write:
+            return None, raw[:, self.parts["traj_mean"]].copy()
+        frame = np.zeros((len(raw), self.cfg.n_x), dtype=np.float32)
+        return frame, self._write_next(raw, frame).copy()
+
+    def run(self, seed_x: np.ndarray, skel: np.ndarray, types: np.ndarray, n_frames: int,
+            controls: ControlSource | None = None, seed_traj: np.ndarray | None = None,
+            progress: bool = False, *, traj: np.ndarray | None = None, path: np.ndarray | None = None,
+            start_root=None, start_heading=None) -> Generated:
+        """seed_x (B, S, n_x) raw seed frames; skel (B, n_skel) raw c^s; types (B, n_types) or
+        (B, S + n_frames, n_types); controls: the source of c^d (:mod:`mocapviz.tasks.controls`;
+        default ``FreeRunning(self.pace)``); seed_traj (B, S, 12) raw c^d of the seed frames
+        (default, and in its NaN rows: from ``controls``). Shorthands: ``traj`` (B, T_c, 12) for
+        ``ClipControls(traj)``, ``path`` (B, T_p, 2) with ``start_root`` (B, 3) and
+        ``start_heading`` (B,) for ``PathControls(path, start_root, start_heading)``."""
+        from tqdm.auto import tqdm
+        if traj is not None or path is not None:
+            if controls is not None or (traj is not None and path is not None):
+                raise ValueError("give one control source: controls, traj or path")
+            controls = ClipControls(traj) if traj is not None else PathControls(path, start_root, start_heading)
+        with torch.inference_mode():
+            return self._run(seed_x, skel, types, n_frames, controls or FreeRunning(self.pace), seed_traj,
+                             progress, tqdm)
+
+    def _run(self, seed_x, skel, types, n_frames, controls, seed_traj, progress, tqdm) -> Generated:
+        b, s = seed_x.shape[:2]
+        total = s + n_frames
+        norm = self.norm
+        types = np.asarray(types, dtype=np.float32)
+        per_frame_types = types.ndim == 3
+        cur_type = types[:, 0] if per_frame_types else types
+        self.reset(norm.norm_skel(skel), cur_type)
+        controls.start(norm, self.layout, b, s)
         xs = np.zeros((b, total, self.cfg.n_x), dtype=np.float32)
         xs[:, :s] = norm.norm_x(seed_x)
-        traj_n = None if traj is None else norm.norm_traj(traj)
         seed_n = None if seed_traj is None else norm.norm_traj(seed_traj)
-        root_b = self.layout.x_blocks["root"]
-        if path is not None:
-            root_xz = np.asarray(start_root, dtype=np.float64)[:, [0, 2]].copy()
-            heading = np.asarray(start_heading, dtype=np.float64).copy()
         pred_traj = np.zeros((b, self.cfg.n_traj), dtype=np.float32)
-        speed = None  # with pace "seed": the speed of the plan the last seed frame was generated under
         phase = None
         if self.cfg.phase:  # a seed without a cycle turns at its type's usual pace (TypePrior.phase_hz)
             usual = getattr(self.type_prior, "phase_hz", None)
@@ -260,25 +256,10 @@ class Generator:
                                 fallback_hz=None if usual is None else usual[self._type_index])
         for t in tqdm(range(total - 1), desc="generate", disable=not progress):
             if per_frame_types and not np.array_equal(types[:, t + 1], cur_type):
-                if speed is not None:  # a new motion type has its own pace: the network's plan from here on
-                    speed[(types[:, t + 1] != cur_type).any(axis=1)] = np.nan
+                controls.types_changed((types[:, t + 1] != cur_type).any(axis=1))
                 cur_type = types[:, t + 1]
-                set_static(skel_n, cur_type)
-            x_t = xs[:, t]
-            if path is not None:  # integrate the root of frame t (raw units) for c^d_{t+1}
-                r = x_t[:, root_b] * norm.x_std[root_b] + norm.x_mean[root_b]  # (vx, vz, yaw rate, height)
-                root_xz += from_heading_frame_xz(r[:, :2], heading) / FPS
-                heading += r[:, 2] / FPS
-            if traj_n is not None:
-                c_next = traj_n[:, (t + 1) % traj_n.shape[1]]
-            elif path is not None:
-                c_next = norm.norm_traj(path_controls(path, t + 1, root_xz, heading))
-            elif speed is not None:  # the plan at the held speed (NaN: as predicted)
-                free = np.isnan(speed)
-                held = norm.norm_traj(at_speed(norm.denorm_traj(pred_traj), np.where(free, 0.0, speed)))
-                c_next = np.where(free[:, None], pred_traj[:, :held.shape[1]], held) if free.any() else held
-            else:
-                c_next = pred_traj
+                self.set_types(cur_type)
+            c_next = controls.next(t, xs[:, t], pred_traj)
             if t + 1 < s and seed_n is not None:  # the seed's own c^d where it has one (not NaN)
                 seed_c = seed_n[:, t + 1]
                 c_next = np.where(np.isnan(seed_c), c_next[:, :seed_c.shape[1]], seed_c)
@@ -286,15 +267,9 @@ class Generator:
                 if t + 1 >= s and self.phase_source == "network":
                     phase[:, t + 1] = on_circle(pred_traj[:, -2:])
                 c_next = np.concatenate([c_next[:, :self.cfg.n_traj - 2], phase[:, t + 1]], axis=1)
-            if self.pace == "seed" and t + 2 == s:
-                speed = plan_speed(norm.denorm_traj(c_next))
-            raw = self._step(x_t, np.ascontiguousarray(c_next), t)
-            # a view of raw: the residual channels get g x_t added in place
-            self.cfg.add_residual(raw[:, self.parts["mean"]], x_t)
-            if self.keep_outputs:
-                self.raw_outputs.append(raw.copy())
-            if t + 1 >= s:
-                pred_traj = self._write_next(raw, xs[:, t + 1]).copy()
-            else:
-                pred_traj = raw[:, self.parts["traj_mean"]].copy()
+            c_next = np.ascontiguousarray(c_next)
+            controls.fed(t, c_next)
+            frame, pred_traj = self.advance(xs[:, t], c_next, t, write=t + 1 >= s)
+            if frame is not None:
+                xs[:, t + 1] = frame
         return Generated(norm.denorm_x(xs), s, xs, phase)

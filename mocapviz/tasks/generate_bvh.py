@@ -32,6 +32,7 @@ from mocapviz.io.tpose import leading_tpose_frames
 from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton, SkeletonMapError
 from mocapviz.skeleton_map import map_skeleton
+from mocapviz.tasks.controls import PathControls
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.generation_defaults import PACE, SAMPLING_TEMPERATURE
 from mocapviz.tasks.rig import ModelRig, floor_height, grounded, known_body, leg_length, retarget_to
@@ -279,15 +280,15 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     types_oh = type_schedule(list(types), known, len(feats.x), n_gen, switch_every, fps)
     theta = heading_angles(seen.positions(), seen.skeleton)
     end_root, end_heading = seen.root_positions[-1], float(theta[-1])
-    path = None
+    controls = None  # the network's own plan, at the pace asked for
     if path_xz is not None:
         ahead = path_points(path_xz, n_gen) * size + end_root[[0, 2]]
-        path = np.concatenate([seen_root[:, [0, 2]], ahead])[None]
+        controls = PathControls(np.concatenate([seen_root[:, [0, 2]], ahead])[None], feats.start_root[None],
+                                np.array([feats.start_heading]))
     gen = Generator(model, normaliser, sample=sample, seed=rng_seed, temperature=temperature,
                     noise_correlation=noise_correlation, pace=pace).run(
-        feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, path=path,
-        seed_traj=seed_controls(feats.traj)[None], start_root=feats.start_root[None], start_heading=np.array([feats.start_heading]),
-        progress=progress)
+        feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, controls,
+        seed_traj=seed_controls(feats.traj)[None], progress=progress)
     gen_m = gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,
                        include_seed=False).scaled(1 / size)
     if on_body is not None:  # back onto the seed's own body

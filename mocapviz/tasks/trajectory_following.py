@@ -5,7 +5,7 @@ metres) is split into segments whose motion types are a seeded draw; the charact
 the mean speed of its segment's type in the training data, which turns the path into one ground
 point per frame. Each test seed (the first 120 frames of a locomotion test clip) gets the path
 placed at the root and heading where its seed ends; the generator recomputes c^d every frame from
-the character's integrated root and heading (:func:`mocapviz.tasks.generate.path_controls`), and
+the character's integrated root and heading (:class:`mocapviz.tasks.controls.PathControls`), and
 c^t follows the segments (a 20-frame linear blend at each change, as the keyboard control's).
 
 Trajectory distance (§4.3.2): per generated frame, the closest distance of the root's ground
@@ -30,6 +30,7 @@ import pandas as pd
 from mocapviz.features.ccnet import FPS, FeatureLayout, integrate_root
 from mocapviz.features.motion_types import MOTION_TYPES, one_hot
 from mocapviz.heading import from_heading_frame_xz
+from mocapviz.tasks.controls import PathControls
 from mocapviz.tasks.generate import Generated, Generator
 
 TRAJECTORY_DIR = Path(__file__).resolve().parent / "trajectories"
@@ -199,8 +200,8 @@ def follow(model, normaliser, ds, rows: list[int], name: str, speeds: dict[str, 
                                       blended_types(names[1:], MOTION_TYPES[a["type_index"]], n_types)]))
     gen = Generator(model, normaliser, batch=len(rows), backend=backend)
     out = gen.run(seed_x, np.stack([a["skel"] for a in arrs]), np.stack(labels), n - 1,
-                  path=np.stack(paths), seed_traj=np.stack([a["traj"][:n_seed] for a in arrs]),
-                  start_root=np.stack(starts), start_heading=np.asarray(headings), progress=progress)
+                  PathControls(np.stack(paths), np.stack(starts), np.asarray(headings)),
+                  seed_traj=np.stack([a["traj"][:n_seed] for a in arrs]), progress=progress)
     achieved, dist, covered, timed = [], [], [], []
     for i in range(len(rows)):
         root, _ = integrate_root(out.x[i][:, root_b], starts[i], headings[i])

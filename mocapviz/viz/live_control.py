@@ -19,14 +19,8 @@ import numpy as np
 from mocapviz.features.ccnet import FPS, features_to_motion
 from mocapviz.heading import from_heading_frame_xz
 from mocapviz.io.bvh import write_bvh
-from mocapviz.tasks.control import (
-    KEY_TYPES,
-    ControlSession,
-    KeyEvent,
-    hold,
-    path_speed,
-    plan_controls,
-)
+from mocapviz.tasks.control import KEY_TYPES, ControlSession, KeyEvent, hold, plan_controls
+from mocapviz.tasks.controls import path_speed
 from mocapviz.viz import geometry as geo
 from mocapviz.viz import scene
 
