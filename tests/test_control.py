@@ -1,5 +1,7 @@
 """Interactive control (paper §4.4): the key semantics by hand, and a scripted session of the
-committed CCNet that turns, speeds up and changes type when asked."""
+committed CCNets that take the keys (every one) and turn, speed up and change type when asked (those that follow)."""
+
+import functools
 
 import numpy as np
 import pytest
@@ -19,8 +21,15 @@ from mocapviz.tasks.control import (
 WALK, JOG = MOTION_TYPES.index("walk"), MOTION_TYPES.index("jog")
 N_TYPES = len(MOTION_TYPES)
 # every committed CCNet that control must drive: the paper's architecture on dataset v4's 21
-# types, and the generate command's model (a phase, a latent z with a type prior: its c^d is 14 wide)
-CONTROL_MODELS = ("ccnet_default", "ccnet_generate")
+# types, the generate command's model (a phase, a latent z with a type prior: its c^d is 14 wide)
+# and the paper's next-frame network (a residual mean)
+CONTROL_MODELS = ("ccnet_default", "ccnet_generate", "ccnet_paper")
+# ... and the ones whose character follows the keys; ccnet_paper takes them (the fed c^d bend and
+# speed up as asked) but its character does not follow: over 5 seeds and 2 s it turned -0.43 rad
+# with left held and +2.05 rad with right held (none: -0.61), rolled out far from its training inputs
+FOLLOWING = [pytest.param(m, marks=pytest.mark.xfail(strict=True, reason="ccnet_paper's character does not follow "
+                                                    "the keys it takes (test_control.py: FOLLOWING)"))
+             if m == "ccnet_paper" else m for m in CONTROL_MODELS]
 
 
 def test_number_key_blends_the_label_over_20_frames():
@@ -57,12 +66,17 @@ def test_steer_turn_offsets_and_speed_by_hand():
     assert np.allclose(steer(np.zeros(12), 0.0, 1.5, 1.0).reshape(6, 2)[:, 1], 1.5 * np.arange(1, 7) / 6)
 
 
-@pytest.fixture(scope="module", params=CONTROL_MODELS)
-def committed(request):
+@functools.cache
+def load(name):
     from data_prep.sources import REPO_ROOT
     from mocapviz.training.checkpoint import load_checkpoint
     from mocapviz.zoo import find_checkpoint
-    return load_checkpoint(find_checkpoint(request.param, cwd=REPO_ROOT))
+    return load_checkpoint(find_checkpoint(name, cwd=REPO_ROOT))
+
+
+@pytest.fixture(scope="module", params=CONTROL_MODELS)
+def committed(request):
+    return load(request.param)
 
 
 @pytest.fixture(scope="module")
@@ -104,24 +118,44 @@ def test_without_keys_the_session_is_the_free_running_generator(committed, seeds
     assert np.allclose(s.x(), ref.x[0], atol=1e-3)
 
 
-def test_scripted_keys_turn_left_speed_up_and_change_type(committed, seeds):
-    runs = {k: [scripted(committed, a, ev) for a in seeds] for k, ev in
-            dict(none=[], left=hold("left", 0, 120), right=hold("right", 0, 120),
-                 up=[KeyEvent(i, "up") for i in range(3)]).items()}
-    turn = {k: np.mean([r[1] for r in v]) for k, v in runs.items()}
-    speed = {k: np.mean([r[2] for r in v]) for k, v in runs.items()}
+_RUNS = {}
+
+
+def scripted_runs(name, seeds):
+    """Scripted sessions of the model ``name`` on every seed: no keys, left or right held for 2 s,
+    three ups; with the mean turn and speed of the generated root paths per script."""
+    if name not in _RUNS:
+        committed = load(name)
+        runs = {k: [scripted(committed, a, ev) for a in seeds] for k, ev in
+                dict(none=[], left=hold("left", 0, 120), right=hold("right", 0, 120),
+                     up=[KeyEvent(i, "up") for i in range(3)]).items()}
+        turn = {k: np.mean([r[1] for r in v]) for k, v in runs.items()}
+        speed = {k: np.mean([r[2] for r in v]) for k, v in runs.items()}
+        _RUNS[name] = runs, turn, speed
+    return _RUNS[name]
+
+
+@pytest.mark.parametrize("name", CONTROL_MODELS)
+def test_scripted_keys_bend_the_fed_controls_and_change_type(name, seeds):
+    runs, _, _ = scripted_runs(name, seeds)
+    committed = load(name)
     # the controls themselves: holding left bends every fed c^d to the character's left (+X)
     for (s_left, *_), (s_none, *_) in zip(runs["left"], runs["none"]):
         assert np.mean(np.stack(s_left.controls[:120]).reshape(-1, 6, 2)[:, -1, 0]) > \
             np.mean(np.stack(s_none.controls[:120]).reshape(-1, 6, 2)[:, -1, 0])
     for s_up, _, _, plan in runs["up"]:   # ... and "up" makes every fed c^d as fast as requested
         assert np.allclose(path_speed(np.stack(s_up.controls)), plan.speed, rtol=1e-4)
+    # type: "2" after a walk seed blends to jog, and the generator receives it
+    walk_seed = next(a for a in seeds if a["type_index"] == WALK)
+    s, *_ = scripted(committed, walk_seed, [KeyEvent(30, "2")], frames=80)
+    assert np.array_equal(s.types, one_hot(JOG, committed[0].cfg.n_types))
+
+
+@pytest.mark.parametrize("name", FOLLOWING)
+def test_scripted_keys_steer_the_character(name, seeds):
+    _, turn, speed = scripted_runs(name, seeds)
     # the generated root paths (5 seeds, mean): left turns more to the left than right does, and
     # three ups (+1.5 m/s requested) make the character faster
     assert turn["left"] - turn["right"] > 0.5, turn
     assert turn["left"] > turn["none"], turn
     assert speed["up"] - speed["none"] > 0.5, speed
-    # type: "2" after a walk seed blends to jog, and the generator receives it
-    walk_seed = next(a for a in seeds if a["type_index"] == WALK)
-    s, *_ = scripted(committed, walk_seed, [KeyEvent(30, "2")], frames=80)
-    assert np.array_equal(s.types, one_hot(JOG, committed[0].cfg.n_types))
