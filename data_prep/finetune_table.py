@@ -11,9 +11,8 @@ for ``tr``: its locomotion is ``sneak`` (our stand-in for the paper's "W") and
 and R), as the paper's two FT columns.
 
 Rows: the CCNet (``ccnet_paper``, the paper's next-frame network) without fine-tuning and
-fine-tuned on each set; ERD-4LR and DAE-LSTM without fine-tuning, ERD-4LR fine-tuned on sneak
-and jog (DAE-LSTM is not fine-tuned: the trainer runs its autoencoder's pretraining again at
-step 0 of any run, which on a fine-tune would retrain the frozen autoencoder on 11 s of tr);
+fine-tuned on each set; ERD-4LR and DAE-LSTM without fine-tuning and fine-tuned on sneak and jog
+(a fine-tune keeps DAE-LSTM's pretrained autoencoder; its LSTM and decoder train);
 copy-last and constant velocity (:mod:`mocapviz.tasks.do_nothing`) on the same frames.
 CCNet-D1 / CCNet-D2 (trained from scratch on training subjects close to / far from tr in size)
 need two more full trainings (each 80 CPU minutes as ccnet_paper was) and are written as rows
@@ -22,7 +21,7 @@ not run, with the reason in ``note``.
 Fine-tuning: :func:`mocapviz.training.trainer.train` with ``init`` (the network and its
 normaliser), the model's own training config (``mocapviz.zoo.MODELS``) with its learning rate
 (start and end) times ``--lr-scale`` (0.1), ``--steps`` optimiser steps (CCNet, default 400) or
-``--baseline-steps`` (ERD-4LR, default 400), one CPU thread, about ten evaluations on the
+``--baseline-steps`` (ERD-4LR and DAE-LSTM, default 400), one CPU thread, about ten evaluations on the
 validation clip; run folders in ``cache/runs/finetune_table5/``; the best-by-validation
 checkpoint is scored. A fixed step count, not a wall-clock budget (``--minutes`` gives one):
 on a shared machine a budget's steps depend on the load. Each row records the minutes of tr's
@@ -56,7 +55,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--erd", default="erd_quick")
     p.add_argument("--dae", default="dae_lstm_quick")
     p.add_argument("--steps", type=int, help="optimiser steps of each CCNet fine-tune (default 400; quick 2)")
-    p.add_argument("--baseline-steps", type=int, help="... of the ERD-4LR fine-tune (default 400; quick 2; 0: none)")
+    p.add_argument("--baseline-steps", type=int, help="... of the ERD-4LR and DAE-LSTM fine-tunes (default 400; "
+                   "quick 2; 0: none)")
     p.add_argument("--minutes", type=float, help="instead of steps: a wall-clock budget per fine-tune "
                    "(TrainConfig.minutes; on a shared machine its steps depend on the load)")
     p.add_argument("--lr-scale", type=float, default=0.1, help="the model's own learning rate times this")
@@ -180,8 +180,9 @@ def run(a: argparse.Namespace) -> int:
     cfgs = {a.model: finetune_config(own_config(a.model, models[a.model][0]), steps, a.lr_scale, a.minutes)}
     plan = [(a.model, s) for s in ("walk (sneak)", "walk and run (sneak, jog)")]
     if baseline_steps > 0:
-        cfgs[a.erd] = finetune_config(own_config(a.erd, models[a.erd][0]), baseline_steps, a.lr_scale, a.minutes)
-        plan.append((a.erd, "walk and run (sneak, jog)"))
+        for name in (a.erd, a.dae):
+            cfgs[name] = finetune_config(own_config(name, models[name][0]), baseline_steps, a.lr_scale, a.minutes)
+            plan.append((name, "walk and run (sneak, jog)"))
     runs_dir = Path(a.runs_dir) if a.runs_dir else REPO_ROOT / "cache" / "runs" / "finetune_table5"
     table = table5(ds, models, plan, cfgs, runs_dir)
     command = "python -m data_prep finetune-table" + (" --quick" if a.quick else "") + "".join(

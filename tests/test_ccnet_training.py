@@ -221,3 +221,17 @@ def test_fine_tuning_starts_from_the_pretrained_network_and_its_normaliser(ds, t
     # without init the same run starts from fresh weights
     fresh, _, _ = load_checkpoint(train(other, still, tmp_path / "fresh", progress=False))
     assert not torch.allclose(fresh.encoder.weight, pre_model.encoder.weight)
+
+
+def test_fine_tuning_keeps_dae_lstms_pretrained_autoencoder(ds, tmp_path):
+    cfg = replace(TRAIN_CONFIGS["quick"], model="dae_lstm", steps=1, eval_every=1, checkpoint_every=1, batch_size=2,
+                  window=30)
+    pre = train(ds, cfg, tmp_path / "pre", progress=False)
+    pre_model = load_checkpoint(pre)[0]
+    tuned = load_checkpoint(train(ds, replace(cfg, seed=3), tmp_path / "tuned", progress=False, init=pre))[0]
+    for (k, a), b in zip(tuned.dae_encoder.state_dict().items(), pre_model.dae_encoder.state_dict().values()):
+        torch.testing.assert_close(a, b, atol=0, rtol=0, msg=k)   # not pretrained again on the new data
+    assert not torch.equal(tuned.head.weight, pre_model.head.weight)   # the rest did train
+    # a fresh run with another seed pretrains its own autoencoder
+    fresh = load_checkpoint(train(ds, replace(cfg, seed=3), tmp_path / "fresh", progress=False))[0]
+    assert not torch.equal(fresh.dae_encoder[0].weight, pre_model.dae_encoder[0].weight)

@@ -182,7 +182,9 @@ def train(ds, cfg: TrainConfig, out_dir, resume: bool = True, progress: bool = T
             raise ValueError(f"{ckpt} was trained with another config; use a new out_dir or resume=False")
         start = int(meta["step"])
         rows = read_log(csv_path, start)
-    if start == 0 and hasattr(model, "pretrain"):  # a model with a pretraining stage (DAE-LSTM's autoencoder)
+    # a model with a pretraining stage (DAE-LSTM's autoencoder) pretrains in a fresh run; a fine-tune
+    # keeps the pretrained stage it starts from
+    if start == 0 and pretrained is None and hasattr(model, "pretrain"):
         model.pretrain(data, seed=cfg.seed)
     best = best_row(rows)
     best_val = float(best["val_nll"]) if best else math.inf
