@@ -79,6 +79,9 @@ MODULE_COMMANDS = (
      "reconstruction table (see data_prep/train_cvae.py)"),
     ("finetune-table", "data_prep.finetune_table", "CCNet Table 5: fine-tuning on the unseen subject tr, rel_p "
      "(see data_prep/finetune_table.py)"),
+    ("unseen-body", "data_prep.unseen_body_table", "CCNet Figs. 9-10: walking and trajectory following for tr with "
+     "its legs scaled by 0.8 ('7b'), the seed-to-generation jump and the feet against the floor, into "
+     "results/ccnet_unseen_body.csv (see data_prep/unseen_body_table.py)"),
     ("ccnet-ablations", "data_prep.ccnet_ablations", "CCNet's ablations (Figs. 11-12): CRL, NCF, w/o ROT, Smooth, SK, "
      "LSTMs for SRBs, into results/ccnet_ablations.csv (see data_prep/ccnet_ablations.py)"),
     ("cvae4d-prediction", "data_prep.cvae4d_prediction", "4D motion prediction (paper 2 §5): train Residual-sup "
