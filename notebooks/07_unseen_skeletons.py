@@ -14,7 +14,7 @@
 # ---
 
 # %% tags=["parameters"]
-QUICK = True   # quick: read the committed table; full: recompute it (python -m data_prep finetune-table)
+QUICK = True   # quick: read the committed tables; full: recompute them (python -m data_prep finetune-table, unseen-body)
 FIG_DIR = "../figures"
 
 # %% [markdown]
