@@ -41,8 +41,8 @@ FIG_DIR = "../figures"
 #   rel_p of the one-step prediction (the mean output, the past being the true frames), on the
 #   continuous part of the frame vector in raw units (`mocapviz.metrics.rel_p`);
 # - rows: `ccnet_paper` (the paper's network trained for next-frame prediction) without and with
-#   each fine-tuning; ERD-4LR (`erd_quick`) without and with, DAE-LSTM (`dae_lstm_quick`)
-#   without; the predictors that do nothing (copy the last frame, constant velocity) on the
+#   each fine-tuning; ERD-4LR (`erd_quick`) and DAE-LSTM (`dae_lstm_quick`) without and with
+#   fine-tuning on sneak and jog; the predictors that do nothing (copy the last frame, constant velocity) on the
 #   same frames, as the floor any predictor must beat;
 # - each fine-tuning row says how many minutes of `tr`'s motion it saw, its steps and its CPU
 #   minutes; `rel_p_val` is rel_p on the held-back sneak clip (the kind of motion fine-tuning
