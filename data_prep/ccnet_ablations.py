@@ -92,9 +92,9 @@ def run(a: argparse.Namespace) -> int:
     for name in a.only or runs:
         print(f"ablation {name}: {runs[name][0]} {runs[name][1]}")
         train(ds, config_of(name, steps), root / name)
-    missing = [n for n in runs if not (root / n / "losses.csv").is_file()]
+    missing = [n for n in runs if not finished(root / n, steps)]
     if missing:
-        print(f"not writing the table yet: runs {missing} are missing")
+        print(f"not writing the table yet: runs {missing} are missing or still training")
         return 0
     table, curves = ablation_table(ds, root, steps, "quick" if a.quick else "full")
     out = Path(a.out)
@@ -106,6 +106,13 @@ def run(a: argparse.Namespace) -> int:
                      "test_loss_ref"]].to_string(index=False))
     print(f"written {out / OUT_NAME} and {out / CURVES_NAME}")
     return 0
+
+
+def finished(run_dir: Path, steps: int) -> bool:
+    """Whether the run in ``run_dir`` has logged its last step (another shell may be training it)."""
+    from mocapviz.training.runs import read_log
+    rows = read_log(run_dir / "losses.csv")
+    return bool(rows) and int(rows[-1]["step"]) >= steps
 
 
 def config_of(name: str, steps: int):

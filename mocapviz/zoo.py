@@ -155,6 +155,18 @@ def load_cvae4d(name_or_file: str, zoo_dir=None):
     return load_cvae(path)
 
 
+def cvae4d_epochs(name: str) -> tuple[int, int]:
+    """(epochs run, epoch kept) of a committed 4D motion CVAE, from the ``<name>_losses.csv``
+    beside it: a run with a time budget stops before its config's ``epochs``, and ``keep_best``
+    keeps its best validation epoch (the last logged row's ``kept_epoch``; else the last)."""
+    import pandas as pd
+
+    log = pd.read_csv(find_checkpoint(name).with_name(f"{name}_losses.csv"))
+    run = int(log.epoch.iloc[-1])
+    kept = log.kept_epoch.dropna() if "kept_epoch" in log else pd.Series(dtype=float)
+    return run, int(kept.iloc[-1]) if len(kept) else run
+
+
 def load_residual_sup(name_or_file: str = "residual_sup", zoo_dir=None):
     """(model, meta) of a committed Residual-sup baseline (4D motion paper §5), from ``zoo_dir`` or
     the :func:`search_path`; trained by ``python -m data_prep cvae4d-prediction --train-baseline``."""

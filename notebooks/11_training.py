@@ -66,7 +66,7 @@ from mocapviz.bodies.torch_mesh import ChiMesher, chi_times
 from mocapviz.models.protocol import count_parameters
 from mocapviz.tasks.cvae4d_eval import on_scale, reconstruct_cvae, test_sets, vertex_errors
 from mocapviz.training.cvae4d import TASKS, data_fingerprint, split_indices
-from mocapviz.zoo import find_checkpoint, load_cvae4d
+from mocapviz.zoo import cvae4d_epochs, find_checkpoint, load_cvae4d
 from mocapviz.viz import cycle_strips, save_figure, set_notebook_backend
 
 torch.set_num_threads(2)
@@ -125,9 +125,12 @@ phase2, meta2 = load_cvae4d("cvae4d_phase2")
 log1, log2 = (pd.read_csv(find_checkpoint(n).with_name(f"{n}_losses.csv")) for n in ("cvae4d_phase1", "cvae4d_phase2"))
 print(phase2)
 print(f"{count_parameters(phase2):,} parameters; latent {phase2.cfg.latent}, hidden {phase2.cfg.hidden}")
-for name, meta in (("phase 1", meta1), ("phase 2", meta2)):
+for name, zoo_name, meta in (("phase 1", "cvae4d_phase1", meta1), ("phase 2", "cvae4d_phase2", meta2)):
     tc = meta["train_config"]
-    print(f"{name}: {tc['epochs']} epochs, batch {tc['batch_size']}, lr {tc['lr']}, KL weight {tc['kl_weight']}, "
+    run, kept = cvae4d_epochs(zoo_name)
+    ended = " (its time budget ended it)" if run < tc["epochs"] else ""
+    print(f"{name}: {run} epochs run of the {tc['epochs']} configured{ended}, epoch {kept} kept; "
+          f"batch {tc['batch_size']}, lr {tc['lr']}, KL weight {tc['kl_weight']}, "
           f"{float(meta['seconds']) / 60:.1f} min wall on {tc['threads']} thread(s) of a shared machine; "
           f"{meta['dataset']['n_train']} training cycles of dataset {meta['dataset']['hash']}; `{meta['command']}`")
 print("this notebook's dataset is the one they were trained on:",

@@ -75,7 +75,7 @@ from mocapviz.tasks.cvae4d_latent import (clustering_scores, cycle_measurements,
                                           smallest_step, type_medoid)
 from mocapviz.training.cvae4d import data_fingerprint, split_indices
 from mocapviz.viz import cycle_strips, save_figure, set_notebook_backend
-from mocapviz.zoo import load_cvae4d
+from mocapviz.zoo import cvae4d_epochs, load_cvae4d
 
 torch.set_num_threads(1)
 set_notebook_backend(QUICK)
@@ -322,6 +322,6 @@ print(f"... the same small-step check on the straight line in raw chi: {wb.loc['
 
 # %%
 phases = dict.fromkeys(["cvae4d_phase1", MODEL])  # the phases behind the model shown
-epochs = " + ".join(str(load_cvae4d(n)[1]["train_config"]["epochs"]) for n in phases)
-print(f"{MODEL}: {meta['dataset']['n_train']} training cycles, {epochs} epochs ({' then '.join(phases)}), "
+epochs = " + ".join(f"{cvae4d_epochs(n)[1]} (of {cvae4d_epochs(n)[0]} run)" for n in phases)
+print(f"{MODEL}: {meta['dataset']['n_train']} training cycles, {epochs} epochs kept ({' then '.join(phases)}), "
       f"beta of {ds.beta.shape[1]} parameters; paper: 13,121 cycles, 5,000 + 200 epochs, beta of 8")

@@ -65,7 +65,7 @@ from mocapviz.tasks.cvae4d_eval import on_scale
 from mocapviz.tasks.cvae4d_prediction import PredictionSetup, error_table, ordering, predict_cvae, prediction_errors
 from mocapviz.training.cvae4d import data_fingerprint, make_mesher, split_indices
 from mocapviz.viz import cycle_strips, save_figure, set_notebook_backend
-from mocapviz.zoo import load_cvae4d, load_residual_sup
+from mocapviz.zoo import cvae4d_epochs, load_cvae4d, load_residual_sup
 
 torch.set_num_threads(1)
 set_notebook_backend(QUICK)
@@ -187,15 +187,14 @@ print("first 0.1 s after the observed window (full table, mean mm):",
 # the causes are ours (printed below): far fewer training cycles and subjects than the paper's
 # AMASS, a CPU-sized decoder trained for few epochs, anny instead of SMPL. Our Residual-sup is
 # small too (the GRU units printed above, trained for minutes on one CPU core; Martinez used
-# 1,024 units). **The committed table is older than the committed models**: it was made with
-# the previous CVAE on the previous dataset build (409 held-out cycles, HDM05 held out as a
-# source) and has not been redone; `python -m data_prep cvae4d-prediction --table` remakes it.
+# 1,024 units). The committed table was made with the committed models on the current
+# dataset build (`python -m data_prep cvae4d-prediction --table`).
 
 # %%
 recon = pd.read_csv(REPO_ROOT / "results" / "cvae4d_reconstruction.csv")
 display(recon[recon["model"] == CVAE][["test_set", "n", "mean", "median"]])  # reconstruction (z = mu), mm
-epochs = " + ".join(str(load_cvae4d(n)[1]["train_config"]["epochs"]) for n in ("cvae4d_phase1", CVAE))
-print(f"{CVAE}: {meta['dataset']['n_train']} training cycles, {epochs} epochs, widths {cvae.cfg.hidden}; "
+epochs = " + ".join(f"{cvae4d_epochs(n)[1]} (of {cvae4d_epochs(n)[0]} run)" for n in ("cvae4d_phase1", CVAE))
+print(f"{CVAE}: {meta['dataset']['n_train']} training cycles, {epochs} epochs kept, widths {cvae.cfg.hidden}; "
       "paper: 13,121 AMASS cycles, 5,000 + 200 epochs on a GPU, SMPL")
 
 # %% [markdown]

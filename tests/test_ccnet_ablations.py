@@ -68,3 +68,11 @@ def test_a_run_is_scored_on_windows_of_eval_window_frames(ds, tmp_path):
     assert float(logged["test_nll"]) == pytest.approx(evaluate(model, data, data.test)["nll"], abs=1e-4)
     other = WindowData(ds, 30, hidden_inputs=("skeleton",))   # the training windows score differently
     assert abs(float(logged["test_nll"]) - evaluate(model, other, other.test)["nll"]) > 1e-3
+
+
+def test_a_run_counts_as_finished_only_at_its_last_step(tmp_path):
+    from data_prep.ccnet_ablations import finished
+    from mocapviz.training.runs import write_log
+    assert not finished(tmp_path, 10)                      # no log yet
+    write_log(tmp_path / "losses.csv", [dict(step=s, loss=1.0) for s in range(1, 4)])
+    assert not finished(tmp_path, 10) and finished(tmp_path, 3)

@@ -76,3 +76,12 @@ def test_retired_models_left_the_zoo_and_still_load_from_the_tag():
     with pytest.warns(UserWarning, match="retired"):
         model, norm, meta = repo_zoo.load("ccnet_wide")
     assert model.cfg.channels == 96 and meta["step"] == 2800 and len(meta["parts"]) == 2
+
+
+def test_cvae4d_epochs_reads_what_the_run_did_not_what_it_was_configured_for():
+    from mocapviz.zoo import cvae4d_epochs, load_cvae4d
+    for name in ("cvae4d_phase1", "cvae4d_phase2"):
+        run, kept = cvae4d_epochs(name)
+        configured = load_cvae4d(name)[1]["train_config"]["epochs"]
+        assert 1 <= kept <= run <= configured
+    assert cvae4d_epochs("cvae4d_phase2")[0] < load_cvae4d("cvae4d_phase2")[1]["train_config"]["epochs"]
