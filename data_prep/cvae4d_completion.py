@@ -3,10 +3,11 @@
 written to ``results/cvae4d_completion.csv`` (see :mod:`mocapviz.tasks.cvae4d_completion`).
 
     python -m data_prep.cvae4d_completion                      # the committed table (full mode)
-    python -m data_prep.cvae4d_completion --per-test-set 1 --steps 50 --out /tmp/c.csv   # a smoke run
+    python -m data_prep.cvae4d_completion --per-test-set 1 --steps 50 --no-full-batch --out /tmp/c.csv   # smoke
 
 Rows: M (points per frame; 0 = markers only), frames (observed), variant (points+markers,
-points, markers), weighting (fixed, gradnorm), mean_mm (mean over the cycles of the mean
+points, markers), weighting (fixed, gradnorm), budget (minibatch: CompletionConfig's frames and
+points per Adam step; full: every observed frame and point in each step, for M = 1000), mean_mm (mean over the cycles of the mean
 Chamfer distance to the true meshes), n (cycles), seconds (mean CPU seconds of one fit).
 Per-cycle errors go to ``cache/runs/comp_completion/rows.csv``. Run it on one thread
 (``OMP_NUM_THREADS=1``); it sets torch's threads to 1.
@@ -27,7 +28,10 @@ def main(argv=None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--model", default=MODEL, help="committed CVAE (zoo name or file)")
     p.add_argument("--dataset", choices=("full", "quick"), default="full")
-    p.add_argument("--per-test-set", type=int, default=2, help="held-out cycles drawn from each test set")
+    p.add_argument("--per-test-set", type=int, default=12, help="held-out cycles drawn from each test set "
+                   "(all of a smaller set)")
+    p.add_argument("--no-full-batch", dest="full_batch", action="store_false",
+                   help="skip the full-batch fits (every frame and point in each step; FULL_BATCH_FITS)")
     p.add_argument("--steps", type=int, help="Adam steps per fit (default: CompletionConfig's)")
     p.add_argument("--noise", type=float, default=0.0, help="std (m) of Gaussian noise on points and markers")
     p.add_argument("--data-dir")
@@ -39,7 +43,8 @@ def main(argv=None) -> int:
 
     from data_prep.body4d_dataset import Body4DConfig, build_dataset
     from data_prep.catalog import CACHE_DIR
-    from mocapviz.tasks.cvae4d_completion import CompletionConfig, pick_sequences, run_completion, summary
+    from mocapviz.tasks.cvae4d_completion import (FULL_BATCH_FITS, CompletionConfig, pick_sequences, run_completion,
+                                                  summary)
     from mocapviz.tasks.cvae4d_eval import on_scale
     from mocapviz.zoo import load_cvae4d
 
@@ -57,6 +62,9 @@ def main(argv=None) -> int:
     parts = []
     for i in idx:  # one cycle at a time: the table so far is on disk after each
         parts.append(run_completion(model, ds, [i], cfg=cfg, noise_std=a.noise).drop(columns=["chi", "beta"]))
+        if a.full_batch:
+            parts.append(run_completion(model, ds, [i], FULL_BATCH_FITS, cfg=cfg, noise_std=a.noise,
+                                        budget="full").drop(columns=["chi", "beta"]))
         rows = pd.concat(parts, ignore_index=True)
         rows.to_csv(run / "rows.csv", index=False)
         table = summary(rows)

@@ -126,8 +126,22 @@ def test_committed_table_covers_the_grid():
     import pandas as pd
     from pathlib import Path
 
+    from mocapviz.tasks.cvae4d_completion import FULL_BATCH_FITS
+
     table = pd.read_csv(Path(__file__).resolve().parents[1] / "results" / "cvae4d_completion.csv")
-    assert list(table.columns) == ["M", "frames", "variant", "weighting", "mean_mm", "n", "seconds"]
-    fits = {(m, f, v, w) for m, f, v, w in grid()}
-    assert set(zip(table.M, table.frames, table.variant, table.weighting)) == fits
-    assert (table.n >= 1).all() and table.mean_mm.between(1, 1000).all() and (table.seconds <= 60).all()
+    assert list(table.columns) == ["M", "frames", "variant", "weighting", "budget", "mean_mm", "n", "seconds"]
+    fits = {(m, f, v, w, "minibatch") for m, f, v, w in grid()} | {(m, f, v, w, "full") for m, f, v, w in FULL_BATCH_FITS}
+    assert set(zip(table.M, table.frames, table.variant, table.weighting, table.budget)) == fits
+    assert (table.n >= 30).all() and table.mean_mm.between(1, 1000).all() and (table.seconds <= 60).all()
+
+
+def test_summary_keeps_the_budgets_apart():
+    import pandas as pd
+
+    from mocapviz.tasks.cvae4d_completion import summary
+    rows = pd.DataFrame(dict(M=[50] * 4, frames=[5] * 4, variant=["points"] * 4, weighting=["fixed"] * 4,
+                             budget=["minibatch", "minibatch", "full", "full"], error_mm=[10.0, 20.0, 4.0, 6.0],
+                             seconds=[1.0, 3.0, 5.0, 7.0]))
+    out = summary(rows).set_index("budget")
+    assert out.loc["minibatch", "mean_mm"] == 15.0 and out.loc["full", "mean_mm"] == 5.0
+    assert out.loc["full", "n"] == 2 and out.loc["full", "seconds"] == 6.0

@@ -296,12 +296,22 @@ def pick_sequences(ds, per_test_set: int, seed: int = 0) -> np.ndarray:
                            for idx in test_sets(ds).values()])
 
 
+# full-batch fits (every observed frame and point in every Adam step): do more frames and points
+# help once each step sees them all? M = 1000 keeps a 100-frame step near a CPU second
+FULL_BATCH_FITS = [(1000, f, "points+markers", "fixed") for f in FRAMES]
+BUDGETS = ("minibatch", "full")
+
+
 def run_completion(model, ds, indices, fits=None, cfg: CompletionConfig = CompletionConfig(), body=None,
-                   n_eval_vertices: int = N_EVAL_VERTICES, noise_std: float = 0.0, progress: bool = True):
+                   n_eval_vertices: int = N_EVAL_VERTICES, noise_std: float = 0.0, progress: bool = True,
+                   budget: str = "minibatch"):
     """Every fit of ``fits`` (default :func:`grid`) on each cycle of ``indices`` of ``ds`` (on the
     model's translation scale: :func:`mocapviz.tasks.cvae4d_eval.on_scale`). One row per
-    (cycle, fit): cycle, test_set, type, M, frames, variant, weighting, error_mm, seconds (CPU
-    seconds of the fit), and the fitted chi and beta (for rendering)."""
+    (cycle, fit): cycle, test_set, type, M, frames, variant, weighting, budget, error_mm, seconds
+    (CPU seconds of the fit), and the fitted chi and beta (for rendering). ``budget``:
+    "minibatch" (``cfg``'s frames and points per step) or "full" (all of them in every step)."""
+    if budget not in BUDGETS:
+        raise ValueError(f"budget must be one of {BUDGETS}, got {budget!r}")
     import pandas as pd
     from tqdm.auto import tqdm
 
@@ -323,9 +333,13 @@ def run_completion(model, ds, indices, fits=None, cfg: CompletionConfig = Comple
         for m, f, variant, weighting in fits:
             obs = observe(truth, body.faces, times, m if variant != "markers" else 0, f,
                           markers=variant != "points", noise_std=noise_std, seed=int(i))
-            out = complete(model, mesher, obs, replace(cfg, weighting=weighting))
+            fit_cfg = replace(cfg, weighting=weighting)
+            if budget == "full":
+                fit_cfg = replace(fit_cfg, frames_per_step=f, points_per_step=max(m, 1))
+            out = complete(model, mesher, obs, fit_cfg)
             rows.append(dict(cycle=int(i), test_set=ds.cycles["test_set"].iloc[i], type=ds.cycles["type"].iloc[i],
                              M=m if variant != "markers" else 0, frames=f, variant=variant, weighting=weighting,
+                             budget=budget,
                              error_mm=chamfer_error_mm(ev, out["chi"], out["beta"], truth_eval),
                              seconds=out["seconds"], chi=out["chi"], beta=out["beta"]))
             bar.update()
@@ -334,9 +348,9 @@ def run_completion(model, ds, indices, fits=None, cfg: CompletionConfig = Comple
 
 
 def summary(rows) -> "pd.DataFrame":
-    """Mean error per (M, frames, variant, weighting) over the cycles: mean_mm, n, and the mean
-    CPU seconds of one fit."""
-    g = rows.groupby(["M", "frames", "variant", "weighting"], sort=True)
+    """Mean error per (M, frames, variant, weighting, budget) over the cycles: mean_mm, n, and the
+    mean CPU seconds of one fit."""
+    g = rows.groupby(["M", "frames", "variant", "weighting", "budget"], sort=True)
     return g.agg(mean_mm=("error_mm", "mean"), n=("error_mm", "size"), seconds=("seconds", "mean")).reset_index().round(
         {"mean_mm": 2, "seconds": 2})
 
