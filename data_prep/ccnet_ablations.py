@@ -147,7 +147,7 @@ def ablation_table(ds, root: Path, steps: int, mode: str):
                          ncf=cfg.window, eval_window=cfg.eval_window, hidden_inputs="+".join(cfg.hidden_inputs),
                          smoothness_weight=cfg.lambdas[0], steps=int(last.step), epochs=float(last.epoch),
                          parameters=sum(p.numel() for p in model.parameters()),
-                         cpu_minutes=round(float(log.seconds.iloc[-1]) / 60, 2),
+                         wall_minutes=round(float(log.seconds.iloc[-1]) / 60, 2),
                          train_loss_end=round(float(tail.mean()), 3), val_nll_end=float(last.val_nll),
                          test_nll_end=float(last.test_nll), test_loss_ref=round(test["loss"], 3),
                          best_val_nll=float(best.val_nll), best_step=int(best.step), mode=mode,

@@ -92,7 +92,7 @@ for model in table.columns:
 # `python -m data_prep ccnet-ablations` (`data_prep/ccnet_ablations.py`) trains every run from
 # scratch with the same seed, schedule and number of steps. **Our scale is not the paper's**: the
 # quick CCNet (32 channels), batches of 16 windows, Adam, one CPU thread per run; the table
-# says how many steps and epochs and CPU minutes each got. "Hidden" inputs are set to their
+# says how many steps, epochs and wall-clock minutes each got. "Hidden" inputs are set to their
 # training mean, so the network cannot read them, and are still predicted, so every run's loss
 # sums the same terms. We compare runs by the test NLL (the same term in every loss) and by
 # $L$ with the reference's weights on the final model (`test_loss_ref`).
@@ -105,7 +105,7 @@ else:
     abl = pd.read_csv(REPO_ROOT / "results" / "ccnet_ablations.csv")
 curves = pd.read_csv(REPO_ROOT / "results" / "ccnet_ablation_curves.csv")
 print(f"{abl['mode'].iloc[0]} mode; made by: {abl.command.iloc[0]}")
-abl[["run", "ablation", "setting", "crl", "ncf", "parameters", "steps", "epochs", "cpu_minutes", "train_loss_end",
+abl[["run", "ablation", "setting", "crl", "ncf", "parameters", "steps", "epochs", "wall_minutes", "train_loss_end",
      "val_nll_end", "test_nll_end", "test_loss_ref", "best_val_nll"]]
 
 # %%
