@@ -31,10 +31,9 @@ from pathlib import Path
 ABLATIONS = {f"cvae4d_z{z}": ("latent", z, dict(latent=z)) for z in (8, 16, 32, 64, 128)}
 ABLATIONS.update({f"cvae4d_kl{k}": ("kl_weight", k, dict(kl_weight=k)) for k in (0.001, 0.1)})
 ABLATION_REFERENCE = {"latent": 64, "kl_weight": 0.01}  # the committed models' values: cvae4d_z64's
-# Short runs: 80 epochs (1,200 steps), a fifth of the committed phase-1 run's 400, the same for every
-# ablation. A phase-1 epoch costs ~1.4 CPU s on one thread (13 CPU min for the seven runs), but on
-# the shared machine this job got a quarter of a core (~6 wall s per epoch): the session's deadline
-# set the number, not the CPU budget.
+# Short runs: 80 epochs, a fifth of the committed phase-1 run's 405, the same for every ablation. At
+# widths (256, 256) a phase-1 epoch took 3-4 wall s on one thread of a shared machine (~4.5 min a
+# run, ~32 min for the seven): the session's budget set the number, not convergence.
 ABLATION_EPOCHS = 80
 ABLATION_COMMAND = "python -m data_prep train-cvae --ablations"
 TABLE = Path("results") / "cvae4d_reconstruction.csv"

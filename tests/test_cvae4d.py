@@ -314,8 +314,6 @@ def test_ablation_table_labels_pools_and_summarises():
     assert (means.low_mm[0], means.high_mm[0], bool(means.falls[0])) == (52.0, 2.0, True)
 
 
-@pytest.mark.xfail(strict=True, reason="results/cvae4d_ablations.csv is from the body4d v2 build and the (48, 128) "
-                   "models: its test sets are not the current ones; rerun python -m data_prep train-cvae --ablations")
 def test_ablation_table_complete_and_made_by_the_documented_command():
     import argparse
 
