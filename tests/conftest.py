@@ -54,6 +54,7 @@ SLOW = {
     "test_ccnet_training.py::test_body_scale_run_keeps_the_scaled_normaliser_and_resumes_exactly",
     "test_ccnet_training.py::test_command_line_trains_and_exports",
     "test_ccnet_training.py::test_fine_tuning_starts_from_the_pretrained_network_and_its_normaliser",
+    "test_ccnet_training.py::test_fine_tuning_keeps_dae_lstms_pretrained_autoencoder",
     "test_ccnet_training.py::test_latent_run_trains_logs_the_kl_and_resumes_exactly",
     "test_ccnet_training.py::test_quick_optimiser_fits_one_clip_better_than_copying_the_frame",
     "test_ccnet_training.py::test_resume_continues_the_same_loss_curve",
