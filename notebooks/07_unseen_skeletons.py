@@ -185,9 +185,8 @@ SHOW = ["body", "task", "model", "pipeline", "jump", "jump_pose", "penetration_c
 unseen[SHOW].round(2)
 
 # %% [markdown]
-# The paper's claims beside ours, read from the table (a jump over three times the real
-# clip's is called sharp here; feet more than 5 cm under the floor on average are called through
-# it, a median lowest joint more than 5 cm over it floating).
+# The paper's claims beside ours, read from the table (`seam_verdict` and `ground_verdict`
+# call a jump sharp and feet through the floor or floating past thresholds printed below).
 
 # %%
 NETS = ["ccnet_paper", "ccnet_generate", "erd_quick", "pfnn_quick"]
@@ -195,10 +194,8 @@ walks = unseen[(unseen.task == "walk")].set_index(["body", "model", "pipeline"])
 follows = unseen[(unseen.task == "follow")].set_index(["body", "model"])
 
 
-def where(depth_cm, height_cm):
-    return "through the floor" if depth_cm > 5 else "floating" if height_cm > 5 else "on the floor"
-
-
+print(f"sharp: a jump over {ub.SHARP:g}x the real clip's; through the floor / floating: feet over "
+      f"{ub.FLOOR_CM:g} cm under it on average / a median lowest joint over {ub.FLOOR_CM:g} cm above it")
 print('paper: ERD-4LR and PFNN show "large, sharp changes between the seed frames and generated frames" '
       "for 7b; CCNet generalises to it (Fig. 10); baselines' feet go through the floor (Fig. 9)")
 for body in walks.index.unique("body"):
@@ -206,16 +203,15 @@ for body in walks.index.unique("body"):
     print(f"\nours, body {body}: a real clip cut anywhere scores jump {real.jump:.2f}")
     for m in NETS:
         w, f = walks.loc[(body, m, "network")], follows.loc[(body, m)]
-        sharp = "sharp" if w.jump > 3 * real.jump else "smooth"
-        print(f"  {m:15s} walk: jump {w.jump:5.1f} ({sharp}; pose alone {w.jump_pose:.1f}); feet in the first "
+        print(f"  {m:15s} walk: jump {w.jump:5.1f} ({ub.seam_verdict(w.jump, real.jump)}; pose alone {w.jump_pose:.1f}); feet in the first "
               f"second {w.penetration_1s_cm:.1f} cm under the floor on average, over the run "
-              f"{where(w.penetration_cm, w.foot_height_cm)} ({w.penetration_cm:.1f} cm under, median "
+              f"{ub.ground_verdict(w.penetration_cm, w.foot_height_cm)} ({w.penetration_cm:.1f} cm under, median "
               f"{w.foot_height_cm:+.1f} cm); follow: {f.distance_cm:.0f} ± "
               f"{f.distance_std_cm:.0f} cm, covered {f.covered:.2f}, {f.timed_cm:.0f} cm behind the target point")
     if (body, "ccnet_generate", "generate command") in walks.index:
         g = walks.loc[(body, "ccnet_generate", "generate command")]
         print(f"  ccnet_generate through the generate command: jump {g.jump:.1f}, feet over the run "
-              f"{where(g.penetration_cm, g.foot_height_cm)} ({g.penetration_cm:.1f} cm under)")
+              f"{ub.ground_verdict(g.penetration_cm, g.foot_height_cm)} ({g.penetration_cm:.1f} cm under)")
     s = follows.loc[(body, "stand_still")]
     print(f"  standing still: {s.distance_cm:.0f} cm from the path (it starts there), covered {s.covered:.2f}, "
           f"{s.timed_cm:.0f} cm behind the target point")

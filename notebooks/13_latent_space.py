@@ -322,6 +322,6 @@ print(f"... the same small-step check on the straight line in raw chi: {wb.loc['
 
 # %%
 phases = dict.fromkeys(["cvae4d_phase1", MODEL])  # the phases behind the model shown
-epochs = " + ".join(f"{cvae4d_epochs(n)[1]} (of {cvae4d_epochs(n)[0]} run)" for n in phases)
+epochs = " + ".join(f"{kept} (of {run} run)" for run, kept in map(cvae4d_epochs, phases))
 print(f"{MODEL}: {meta['dataset']['n_train']} training cycles, {epochs} epochs kept ({' then '.join(phases)}), "
       f"beta of {ds.beta.shape[1]} parameters; paper: 13,121 cycles, 5,000 + 200 epochs, beta of 8")

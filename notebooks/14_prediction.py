@@ -193,7 +193,7 @@ print("first 0.1 s after the observed window (full table, mean mm):",
 # %%
 recon = pd.read_csv(REPO_ROOT / "results" / "cvae4d_reconstruction.csv")
 display(recon[recon["model"] == CVAE][["test_set", "n", "mean", "median"]])  # reconstruction (z = mu), mm
-epochs = " + ".join(f"{cvae4d_epochs(n)[1]} (of {cvae4d_epochs(n)[0]} run)" for n in ("cvae4d_phase1", CVAE))
+epochs = " + ".join(f"{kept} (of {run} run)" for run, kept in map(cvae4d_epochs, ("cvae4d_phase1", CVAE)))
 print(f"{CVAE}: {meta['dataset']['n_train']} training cycles, {epochs} epochs kept, widths {cvae.cfg.hidden}; "
       "paper: 13,121 AMASS cycles, 5,000 + 200 epochs on a GPU, SMPL")
 

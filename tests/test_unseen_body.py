@@ -143,3 +143,10 @@ def test_committed_table_has_every_row_and_says_how_it_was_made():
         assert set(unseen_body_table.MODELS) <= set(rows.model[rows.task == "follow"])
         assert {"real_clip", "copy_last", "stand_still"} <= set(rows.model)
         assert rows[rows.task == "follow"].distance_cm.notna().all()
+
+
+def test_verdicts_by_hand():
+    assert ub.seam_verdict(1.3 * ub.SHARP + 0.1, 1.3) == "sharp" and ub.seam_verdict(2.0, 1.3) == "smooth"
+    assert ub.ground_verdict(ub.FLOOR_CM + 1, 0.0) == "through the floor"
+    assert ub.ground_verdict(0.0, ub.FLOOR_CM + 1) == "floating"
+    assert ub.ground_verdict(1.0, -1.0) == "on the floor"

@@ -230,13 +230,31 @@ def measure(motions: list[Motion], n_seed: int) -> dict:
     heights lets a seed through the floor and one floating cancel: read it with the depths."""
     jumps, pose, ground = [], [], []
     for m in motions:
-        p, floor = m.positions(), floor_height(m.positions()[:n_seed])
+        p = m.positions()
+        floor = floor_height(p[:n_seed])
         jumps.append(seam_jump(p, m.skeleton, n_seed, m.fps))
         pose.append(seam_jump(p, m.skeleton, n_seed, m.fps, height=False))
         first = foot_ground(p[n_seed:n_seed + int(round(m.fps))], floor)["penetration_cm"]
         ground.append(dict(foot_ground(p[n_seed:], floor), penetration_1s_cm=first))
     return dict(jump=float(np.mean(jumps)), jump_max=float(np.max(jumps)), jump_pose=float(np.mean(pose)),
                 **{k: float(np.mean([g[k] for g in ground])) for k in ground[0]})
+
+
+SHARP = 3.0       # a seam jump over this many times a real clip's is "sharp" (the paper's word)
+FLOOR_CM = 5.0    # feet deeper than this under the floor on average are "through the floor"; a median
+                  # lowest joint higher than this over it is "floating"
+
+
+def seam_verdict(jump: float, real_jump: float) -> str:
+    """"sharp" or "smooth": a :func:`seam_jump` against a real clip's cut anywhere."""
+    return "sharp" if jump > SHARP * real_jump else "smooth"
+
+
+def ground_verdict(penetration_cm: float, foot_height_cm: float) -> str:
+    """"through the floor", "floating" or "on the floor", from :func:`foot_ground`'s two numbers."""
+    if penetration_cm > FLOOR_CM:
+        return "through the floor"
+    return "floating" if foot_height_cm > FLOOR_CM else "on the floor"
 
 
 def held_last(motion: Motion, n_after: int) -> Motion:

@@ -38,6 +38,7 @@ class WindowData:
             b = self.layout.x_blocks
             self._x_shown[b["rot"]] = self._x_shown[b["angvel"]] = 0.0
         self._skel_shown = 0.0 if "skeleton" in hidden_inputs else 1.0
+        self.hidden_inputs = tuple(hidden_inputs)
         traj = norm.norm_traj(ds.traj)
         if phase:  # c^d gains the local phase (sin, cos), unnormalised (CCNetConfig.phase)
             traj = np.concatenate([traj, clip_phases(ds)], axis=1)
@@ -101,6 +102,8 @@ class WindowData:
         clip = torch.from_numpy(pairs[:, 0]).to(self.x.device)
         g = self.clip_start[pairs[:, 0]] + pairs[:, 1]
         idx = torch.from_numpy(g[:, None] + np.arange(self.window)[None]).to(self.x.device)
-        return dict(x=self.x[idx] * self._x_shown, traj=self.traj[idx + 1], skel=self.skel[clip] * self._skel_shown,
-                    types=self.types[clip], target_x=self.x[idx + 1], target_traj=self.traj[idx + 2],
-                    varying=self.varying)
+        x, skel = self.x[idx], self.skel[clip]
+        if self.hidden_inputs:  # only an ablation pays for the masks
+            x, skel = x * self._x_shown, skel * self._skel_shown
+        return dict(x=x, traj=self.traj[idx + 1], skel=skel, types=self.types[clip], target_x=self.x[idx + 1],
+                    target_traj=self.traj[idx + 2], varying=self.varying)
