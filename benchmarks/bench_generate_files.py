@@ -27,11 +27,13 @@ generated frames are measured against the seed frames the command kept (its firs
   the lowest joint), as a ratio to the seed's (bar within 5 %): a body that crouches and one
   that sinks through the floor both fail it; ``feet`` says which (the generated floor, cm
   above the seed's);
-- lean: the mean angle of the hips -> neck vector from vertical (degrees), against the 5th-95th
-  percentile of the same over the dataset's clips of the seed's motion type;
-  ``rest+`` (not a bar) is the generated forward lean measured from the skeleton's own rest
-  (the hips -> neck vector of the rest pose: 0 on Bandai's, -0.7 to -7.9 degrees on the
-  VICON training skeletons, -2.3 on the Mixamo one here);
+- lean: the mean forward lean of the hips -> neck vector from the same vector in the skeleton's
+  own rest pose, in the heading frame (:func:`mocapviz.metrics.forward_lean`, degrees), against
+  the 5th-95th percentile of the same over the dataset's clips of the seed's motion type.
+  ``vert`` (not a bar) is the vector's angle from vertical, the measure the bar used before: it
+  adds the rest's own tilt (0 on Bandai's skeleton, -0.7 to -7.9 degrees on the VICON training
+  skeletons, -2.3 on the Mixamo one here) and the side-to-side sway, so a Mixamo walk leaning
+  2.2 degrees forward from its rest read 1.0 against real walks' 2.0-8.4;
 - activity: mean joint speed in the root's heading frame (:func:`mocapviz.metrics.activity`),
   as a ratio to the seed's (bar 0.5-2x).
 
@@ -138,18 +140,19 @@ def build_seeds(ds, folder: Path) -> list[dict]:
 
 
 def lean_degrees(positions: np.ndarray, names) -> np.ndarray:
-    """Per frame, the angle (degrees) of the hips -> neck vector from vertical (Y up)."""
+    """Per frame, the angle (degrees) of the hips -> neck vector from vertical (Y up): ``vert``."""
     v = positions[:, names.index("Neck")] - positions[:, names.index("Hips")]
     return np.degrees(np.arccos(np.clip(v[:, 1] / np.linalg.norm(v, axis=1), -1, 1)))
 
 
 def lean_spread(ds, motion_type: str) -> tuple[float, float]:
-    """5th and 95th percentile, over the dataset's clips of ``motion_type``, of their mean lean."""
+    """5th and 95th percentile, over the dataset's clips of ``motion_type``, of their mean forward
+    lean from their skeleton's rest (:func:`mocapviz.metrics.forward_lean`)."""
     rows = np.flatnonzero((ds.clips.type == motion_type).values)
     means = []
     for i in rows:
         m = ds.clip_motion(int(i))
-        means.append(lean_degrees(m.positions(), m.skeleton.names).mean())
+        means.append(metrics.forward_lean(m.positions(), m.skeleton).mean())
     lo, hi = np.percentile(means, LEAN_PERCENTILES)
     return float(lo), float(hi)
 
@@ -164,17 +167,16 @@ def body_numbers(model_motion: Motion, n_seed: int, start: float, stop: float) -
     root = model_motion.root_positions
     lowest = pos[:, :, 1].min(axis=1)
     floor = float(np.median(lowest[seed]))
-    local = metrics.local_positions(pos, model_motion.skeleton)  # heading frame: forward is +Z
-    neck = local[:, names.index("Neck")] - local[:, names.index("Hips")]
-    forward = np.degrees(np.arctan2(neck[:, 2], neck[:, 1])) - _rest_lean(model_motion.skeleton)
+    local = metrics.local_positions(pos, model_motion.skeleton)
+    forward = metrics.forward_lean(pos, model_motion.skeleton)
     s = {k: {} for k in ("seed", "gen")}
     for key, sl in (("seed", seed), ("gen", gen)):
         s[key] = dict(speed=metrics.root_speed(root[sl], fps), height=float((root[sl, 1] - floor).mean()),
-                      lean=float(lean_degrees(pos[sl], names).mean()), lean_from_rest=float(forward[sl].mean()),
+                      lean=float(forward[sl].mean()), vertical=float(lean_degrees(pos[sl], names).mean()),
                       activity=metrics.activity(local[sl], fps))
     return dict(seed=s["seed"], gen=s["gen"], speed=s["gen"]["speed"] / s["seed"]["speed"],
                 height=s["gen"]["height"] / s["seed"]["height"], lean=s["gen"]["lean"],
-                lean_from_rest=s["gen"]["lean_from_rest"], activity=s["gen"]["activity"] / s["seed"]["activity"],
+                vertical=s["gen"]["vertical"], activity=s["gen"]["activity"] / s["seed"]["activity"],
                 feet_cm=100 * (float(np.median(lowest[gen])) - floor))
 
 
@@ -269,12 +271,12 @@ def _fmt_row(name, mode, r, ok, lean_bar, secs) -> str:
     mark = lambda k: "ok" if ok[k] else "FAIL"  # noqa: E731
     return (f"{name:20s} {mode:7s} {r['seed']['speed']:5.2f} {r['gen']['speed']:5.2f} {r['speed']:5.2f}x {mark('speed'):4s} "
             f"{100 * r['seed']['height']:5.1f} {100 * r['gen']['height']:5.1f} {r['height']:6.3f} {mark('height'):4s} "
-            f"{r['feet_cm']:+6.1f}  {r['seed']['lean']:5.1f} {r['lean']:5.1f} [{lean_bar[0]:4.1f},{lean_bar[1]:4.1f}] "
-            f"{mark('lean'):4s} {r['lean_from_rest']:+5.1f} {r['activity']:5.2f}x {mark('activity'):4s} ({secs:.0f} s)")
+            f"{r['feet_cm']:+6.1f}  {r['seed']['lean']:+5.1f} {r['lean']:+5.1f} [{lean_bar[0]:4.1f},{lean_bar[1]:4.1f}] "
+            f"{mark('lean'):4s} {r['vertical']:5.1f} {r['activity']:5.2f}x {mark('activity'):4s} ({secs:.0f} s)")
 
 
 HEADER = (f"{'seed':20s} {'mode':7s} {'m/s':>5s} {'gen':>5s} {'pace':>6s} {'':4s} {'h cm':>5s} {'gen':>5s} {'height':>6s} "
-          f"{'':4s} {'feet':>6s}  {'lean':>5s} {'gen':>5s} {'bar':>11s} {'':4s} {'rest+':>5s} {'activ':>6s}")
+          f"{'':4s} {'feet':>6s}  {'lean':>5s} {'gen':>5s} {'bar':>11s} {'':4s} {'vert':>5s} {'activ':>6s}")
 
 
 def main(argv=None) -> dict:
@@ -316,7 +318,7 @@ def main(argv=None) -> dict:
         if a.diagnose:
             diagnose([s for s in seeds if s["name"].startswith("mixamo")], model, norm, meta, ds, a)
         spreads = {t: lean_spread(ds, t) for t in sorted({s["type"] for s in seeds})}
-        print("lean bars (5th-95th percentile of the dataset's clips' mean lean, degrees): "
+        print("lean bars (5th-95th percentile of the dataset's clips' mean forward lean from their rest, degrees): "
               + ", ".join(f"{t} {lo:.1f}-{hi:.1f}" for t, (lo, hi) in spreads.items()))
         modes = ["sampled"] if a.sample else a.modes.split(",")
         print(HEADER)

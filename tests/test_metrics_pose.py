@@ -157,3 +157,40 @@ def test_a_walk_drifting_into_impossible_poses_is_seen(walks):
     # ... while activity and jitter call it a walk
     assert 0.8 < metrics.ratio(metrics.activity(tumbling_l, FPS), [metrics.activity(real_l, FPS)]) < 1.25
     assert metrics.ratio(metrics.jitter(tumbling_l, FPS), [metrics.jitter(real_l, FPS)]) < 1.5
+
+
+def test_forward_lean_sees_a_bent_spine_and_not_where_the_spine_joints_sit(walks):
+    """The walk with everything above the hips pitched 20 degrees forward (about the heading
+    frame's side axis) leans 20 degrees more; the same motion on a skeleton whose spine starts
+    2 cm further back (its rest reclines, as a Mixamo one does) leans as before from its rest,
+    while the hips -> neck angle from vertical, the measure this replaced, moves."""
+    from mocapviz.skeleton import Skeleton
+
+    m = walks["35_01"]
+    sk = m.skeleton
+    local = metrics.local_positions(m.positions(), sk)
+    upright = metrics.forward_lean(local, sk)
+    upper = [j for j in range(len(sk.names)) if _above(sk, j, sk.index("LowerBack"))]
+    a = np.radians(20.0)
+    pitch = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+    bent = local.copy()
+    bent[:, upper] = (local[:, upper] - local[:, :1]) @ pitch.T + local[:, :1]
+    np.testing.assert_allclose(metrics.forward_lean(bent, sk) - upright, 20.0, atol=0.5)
+
+    offsets = sk.offsets.copy()
+    offsets[sk.index("LowerBack"), 2] -= 0.02
+    reclined = Motion(Skeleton(sk.names, sk.parents, offsets, sk.end_sites), m.rotations, m.root_positions, m.fps)
+    pos = reclined.positions()
+    assert abs(metrics.forward_lean(pos, reclined.skeleton).mean() - upright.mean()) < 0.5
+    v0 = m.positions()[:, sk.index("Neck")] - m.positions()[:, 0]
+    v1 = pos[:, sk.index("Neck")] - pos[:, 0]
+    vertical = [np.degrees(np.arccos(v[:, 1] / np.linalg.norm(v, axis=1))).mean() for v in (v0, v1)]
+    assert abs(vertical[1] - vertical[0]) > 1.0
+
+
+def _above(sk, j: int, ancestor: int) -> bool:
+    while j >= 0:
+        if j == ancestor:
+            return True
+        j = sk.parents[j]
+    return False
