@@ -6,6 +6,8 @@ reconstruction table (multi-frame 4D motion paper §3.3, §4.2-4.4).
     python -m data_prep train-cvae --ablations                   # latent 8..128, KL 0.001/0.1 (short phase-1
                                                                  # runs), then results/cvae4d_ablations.csv
     python -m data_prep train-cvae --table                       # results/cvae4d_reconstruction.csv
+    python -m data_prep train-cvae --alpha-sweep                 # GradNorm's alpha on the validation
+                                                                 # cycles: results/cvae4d_alpha_sweep.csv
 
 Runs go to ``cache/cvae4d/<name>/`` (``model.safetensors``, ``losses.csv``); ``--export`` also
 writes ``models/zoo/<name>.safetensors`` (float16 weights, 13 MB) and ``<name>_losses.csv``.
@@ -38,7 +40,13 @@ ABLATION_EPOCHS = 80
 ABLATION_COMMAND = "python -m data_prep train-cvae --ablations"
 TABLE = Path("results") / "cvae4d_reconstruction.csv"
 ABLATION_TABLE = Path("results") / "cvae4d_ablations.csv"
+# GradNorm's alpha is chosen on the validation cycles by short phase-1 runs (the ablations' length):
+# the lowest mean vertex error wins; the largest weight ratio each alpha reached is logged beside.
+SWEEP_ALPHAS = (0.5, 1.0, 1.5)
+SWEEP_TABLE = Path("results") / "cvae4d_alpha_sweep.csv"
+SWEEP_COMMAND = "python -m data_prep train-cvae --alpha-sweep"
 TABLE_MODELS = ("cvae4d_phase1", "cvae4d_phase2")
+FIT_PER_SET = 40  # cycles per test set whose codes are fitted (a fit costs ~100 encoder passes)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -47,6 +55,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     what.add_argument("--ablations", action="store_true",
                       help=f"train the ablation models (phase 1), write {ABLATION_TABLE}")
     what.add_argument("--table", action="store_true", help=f"evaluate the committed models, write {TABLE}")
+    what.add_argument("--alpha-sweep", action="store_true",
+                      help=f"short phase-1 runs at each GradNorm alpha of {SWEEP_ALPHAS}, scored on the "
+                           f"validation cycles: {SWEEP_TABLE}")
     p.add_argument("--config", help="named config (mocapviz.training.cvae4d.CVAE_CONFIGS; default phase<N>)")
     p.add_argument("--name", help="run name (default cvae4d_phase<N>)")
     p.add_argument("--init", default="cvae4d_phase1", help="phase 2: the phase-1 model (zoo name or file)")
@@ -56,6 +67,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--vertex-subset", type=int, help="phase 2: vertices in the loss (0 = all)")
     p.add_argument("--minutes", type=float, help="wall-clock budget (0: train every epoch)")
     p.add_argument("--seed", type=int, help="training seed (default 0)")
+    p.add_argument("--alpha", type=float, help="GradNorm asymmetry (default: the config's)")
     p.add_argument("--dataset", choices=("full", "quick"), default="full")
     p.add_argument("--data-dir")
     p.add_argument("--export", action="store_true", help="also write models/zoo/<name>.safetensors (+ losses)")
@@ -92,7 +104,7 @@ def _train_one(ds, name: str, cfg, init, export: bool, run: Path | None = None, 
 
 def _command(name: str, cfg) -> str:
     return (f"--phase {cfg.phase} --name {name} --epochs {cfg.epochs} --latent {cfg.latent} --kl {cfg.kl_weight} "
-            f"--minutes {cfg.minutes:g} --seed {cfg.seed}")
+            f"--minutes {cfg.minutes:g} --seed {cfg.seed} --alpha {cfg.alpha:g}")
 
 
 def run(a: argparse.Namespace) -> int:
@@ -103,9 +115,11 @@ def run(a: argparse.Namespace) -> int:
     ds = _dataset(a)
     if a.ablations:
         return run_ablations(a, ds)
+    if a.alpha_sweep:
+        return run_alpha_sweep(a, ds)
     cfg = with_overrides(CVAE_CONFIGS[a.config or f"phase{a.phase}"], phase=a.phase, epochs=a.epochs,
                          latent=a.latent, kl_weight=a.kl, vertex_subset=a.vertex_subset, minutes=a.minutes,
-                         seed=a.seed)
+                         seed=a.seed, alpha=a.alpha)
     init = None
     if a.phase == 2:
         from mocapviz.zoo import find_checkpoint
@@ -123,9 +137,14 @@ def checkpoint_id(path) -> str:
 
 
 def write_table(a: argparse.Namespace) -> int:
-    """Evaluate PCA and the committed CVAEs (:data:`TABLE_MODELS`) on every test set; write :data:`TABLE`."""
+    """Evaluate PCA and the committed CVAEs (:data:`TABLE_MODELS`) on every test set, then the same
+    with each cycle's code fitted (Fig. 5's "z optimised" rows, on :data:`FIT_PER_SET` cycles per
+    set, ``unfitted_mean`` the same model's mean on those cycles); write :data:`TABLE`."""
+    import numpy as np
+
     from data_prep.sources import REPO_ROOT
-    from mocapviz.tasks.cvae4d_eval import error_table, load_checkpoints, reconstruction_errors
+    from mocapviz.tasks.cvae4d_eval import (FIT_SUFFIX, error_table, fit_subsets, fitted_reconstruction_errors,
+                                            load_checkpoints, reconstruction_errors, test_sets)
     from mocapviz.zoo import find_checkpoint
 
     from data_prep.catalog import CACHE_DIR
@@ -135,9 +154,19 @@ def write_table(a: argparse.Namespace) -> int:
     # the second training seed's runs, when trained here: the run-to-run spread beside each model
     paths.update({f"{n}_seed1": CACHE_DIR / "cvae4d" / f"{n}_seed1" / "model.safetensors" for n in TABLE_MODELS
                   if (CACHE_DIR / "cvae4d" / f"{n}_seed1" / "model.safetensors").exists()})
-    errors = reconstruction_errors(ds, load_checkpoints(ds, paths), progress=True, with_probes=True)
-    table = error_table(errors)
+    models = load_checkpoints(ds, paths)
+    errors = reconstruction_errors(ds, models, progress=True, with_probes=True)
+    committed = {n: models[n] for n in TABLE_MODELS}
+    fitted = fitted_reconstruction_errors(ds, committed, FIT_PER_SET, progress=True)
+    table = error_table({**errors, **fitted})
+    everything, subsets = test_sets(ds), fit_subsets(ds, FIT_PER_SET)
+    unfitted = {}
+    for (name, t) in fitted:
+        at = np.searchsorted(everything[t], subsets[t])
+        unfitted[(name, t)] = round(float(errors[(name[:-len(FIT_SUFFIX)], t)][at].mean()), 2)
+    table["unfitted_mean"] = [unfitted.get((m, t), np.nan) for m, t in zip(table.model, table.test_set)]
     ids = {n: checkpoint_id(p) for n, p in paths.items()}
+    ids.update({n + FIT_SUFFIX: ids[n] for n in TABLE_MODELS})
     table["checkpoint"] = [ids.get(m, "") for m in table["model"]]
     table["dataset"] = ds.meta.get("hash")
     table["command"] = "python -m data_prep train-cvae --table" + (" --dataset quick" if a.dataset == "quick" else "")
@@ -165,24 +194,74 @@ def ablation_settings() -> dict:
     return out
 
 
+def _short_run(ds, name: str, cfg, run: Path, command: str) -> Path:
+    """A short phase-1 run's checkpoint: reused when one with the same config and data exists."""
+    from mocapviz.training.cvae4d import data_fingerprint, load_cvae
+
+    path = run / "model.safetensors"
+    if path.exists():
+        meta = load_cvae(path)[1]
+        if meta["train_config"] == json.loads(cfg.to_json()) and meta["dataset"]["fingerprint"] == data_fingerprint(ds):
+            print(f"{name}: reusing {path} ({meta['seconds']} s of training)")
+            return path
+    return _train_one(ds, name, cfg, None, export=False, run=run, command=command) / "model.safetensors"
+
+
 def run_ablations(a: argparse.Namespace, ds) -> int:
     """Train (or reuse) the seven short phase-1 runs of :data:`ABLATIONS`, then write :data:`ABLATION_TABLE`."""
     from data_prep.catalog import CACHE_DIR
-    from mocapviz.training.cvae4d import CVAE_CONFIGS, data_fingerprint, load_cvae, with_overrides
+    from mocapviz.training.cvae4d import CVAE_CONFIGS, with_overrides
 
-    command, here, paths = ablation_command(a), data_fingerprint(ds), {}
+    command, paths = ablation_command(a), {}
     for name, (_, _, kw) in ABLATIONS.items():
         cfg = with_overrides(CVAE_CONFIGS["phase1"], epochs=a.epochs or ABLATION_EPOCHS, **kw)
-        run = CACHE_DIR / "runs" / f"abl_{name}"
-        path = run / "model.safetensors"
-        if path.exists():
-            meta = load_cvae(path)[1]
-            if meta["train_config"] == json.loads(cfg.to_json()) and meta["dataset"]["fingerprint"] == here:
-                print(f"{name}: reusing {path} ({meta['seconds']} s of training)")
-                paths[name] = path
-                continue
-        paths[name] = _train_one(ds, name, cfg, None, export=False, run=run, command=command) / "model.safetensors"
+        paths[name] = _short_run(ds, name, cfg, CACHE_DIR / "runs" / f"abl_{name}", command)
     return write_ablation_table(ds, paths, command)
+
+
+def run_alpha_sweep(a: argparse.Namespace, ds) -> int:
+    """Short phase-1 runs at each alpha of :data:`SWEEP_ALPHAS` (``--alpha``: that one only), scored
+    by the mean vertex error on the validation cycles (never the test sets), beside the largest
+    GradNorm weight ratio of any step; writes :data:`SWEEP_TABLE` once every alpha has a run."""
+    import numpy as np
+    import pandas as pd
+
+    from data_prep.catalog import CACHE_DIR
+    from data_prep.sources import REPO_ROOT
+    from mocapviz.bodies.anny_model import body_model
+    from mocapviz.bodies.torch_mesh import ChiMesher
+    from mocapviz.tasks.cvae4d_eval import load_checkpoints, reconstruct_cvae, vertex_errors
+    from mocapviz.training.cvae4d import CVAE_CONFIGS, load_cvae, validation_indices, with_overrides
+
+    epochs = a.epochs or ABLATION_EPOCHS
+    command = SWEEP_COMMAND + (f" --epochs {a.epochs}" if a.epochs else "")
+    paths = {}
+    for alpha in ([a.alpha] if a.alpha is not None else SWEEP_ALPHAS):
+        cfg = with_overrides(CVAE_CONFIGS["phase1"], epochs=epochs, alpha=alpha, seed=a.seed)
+        name = f"cvae4d_alpha{alpha:g}"
+        paths[alpha] = _short_run(ds, name, cfg, CACHE_DIR / "runs" / f"sweep_{name}", command)
+    if a.alpha is not None:
+        return 0
+    idx = validation_indices(ds)
+    mesher = ChiMesher(body_model(), ds.gamma_scale)
+    models = load_checkpoints(ds, {alpha: p for alpha, p in paths.items()})
+    rows = []
+    for alpha, model in models.items():
+        err = vertex_errors(mesher, ds.chi[idx], reconstruct_cvae(model, ds.chi[idx], ds.beta[idx]), ds.beta[idx])
+        log = pd.read_csv(paths[alpha].parent / "losses.csv")
+        rows.append(dict(alpha=alpha, epochs=epochs, val_cycles=len(idx), val_mean_mm=round(float(err.mean()), 2),
+                         val_median_mm=round(float(np.median(err)), 2),
+                         w_ratio_max=float(log["w_ratio_max"].max()),
+                         w_ratio_last_epoch=float(log["w_ratio_max"].iloc[-1]),
+                         seconds=float(load_cvae(paths[alpha])[1]["seconds"])))
+    table = pd.DataFrame(rows)
+    table["chosen"] = table["val_mean_mm"] == table["val_mean_mm"].min()
+    table["dataset"], table["command"] = ds.meta.get("hash"), command
+    out = REPO_ROOT / SWEEP_TABLE
+    table.to_csv(out, index=False)
+    print(table.drop(columns=["dataset", "command"]).to_string(index=False))
+    print(f"written {out}")
+    return 0
 
 
 def write_ablation_table(ds, paths: dict, command: str) -> int:

@@ -46,7 +46,9 @@ FIG_DIR = "../figures"
 # The $\omega$ of the partial losses are adaptive, by **GradNorm** (Chen et al. 2018,
 # `mocapviz.training.gradnorm`): each weight moves so that the weighted gradient norms at the
 # decoder's last hidden layer follow each loss's relative training rate to the power
-# $\alpha = 1.5$; weights sum to the number of tasks and restart at 1 in phase 2. $\omega_{KL} = 0.01$
+# $\alpha$ (printed below from the checkpoints; chosen on the validation cycles by
+# `python -m data_prep train-cvae --alpha-sweep`); weights sum to the number of tasks and restart
+# at 1 in phase 2. $\omega_{KL} = 0.01$
 # is fixed; the paper's "squared KL" we read as the closed-form KL of $\mathcal N(\mu, \sigma^2)$
 # to $\mathcal N(0, 1)$, summed over $z$ (`mocapviz.models.cvae4d.kl_divergence` says why).
 
@@ -159,6 +161,9 @@ for col, (log, phase) in enumerate(((log1, 1), (log2, 2))):
     axes[1, col].legend(fontsize=7)
 fig.tight_layout()
 save_figure(fig, fig_dir / "cvae4d_fig_training.png")
+for phase, log, m in ((1, log1, meta1), (2, log2, meta2)):
+    print(f"phase {phase}: GradNorm alpha {m['train_config']['alpha']}; largest ratio between two weights in any "
+          f"step {log['w_ratio_max'].max():.1f}x (the issue's bar: 10x)")
 print("last epoch, phase 1:", log1.iloc[-1][[c for c in log1.columns if not c.startswith(("G_", "r_"))]].to_dict())
 print("last epoch, phase 2:", log2.iloc[-1][[c for c in log2.columns if not c.startswith(("G_", "r_"))]].to_dict())
 

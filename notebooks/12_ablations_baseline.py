@@ -107,6 +107,35 @@ for t in sets:
     print(f"'{t}': mean error phase 2 {p2:.1f} mm, phase 1 {p1:.1f} mm, PCA {pca_mm:.1f} mm -> ordering "
           f"{'holds' if holds else 'does NOT hold'}: phase 2 vs phase 1 {100 * (p2 / p1 - 1):+.1f} %, "
           f"phase 1 vs PCA {100 * (p1 / pca_mm - 1):+.1f} %, phase 2 vs PCA {100 * (p2 / pca_mm - 1):+.1f} %")
+    if {"cvae4d_phase1_seed1", "cvae4d_phase2_seed1"} <= set(m.index):  # a second training seed: the spread
+        q1, q2 = m["cvae4d_phase1_seed1"], m["cvae4d_phase2_seed1"]
+        spread = max(abs(p1 - q1), abs(p2 - q2))
+        gaps = (min(p1, q1) - max(p2, q2), pca_mm - max(p1, q1))
+        print(f"    second seed: phase 2 {q2:.1f}, phase 1 {q1:.1f} mm; run-to-run spread {spread:.1f} mm; worst-case "
+              f"gaps phase 1 - phase 2 {gaps[0]:.1f} mm, PCA - phase 1 {gaps[1]:.1f} mm -> "
+              f"{'both larger than the spread' if min(gaps) > spread else 'NOT both larger than the spread'}")
+
+# %% [markdown]
+# ### How much each encoder loses: codes fitted per cycle
+#
+# The same decoders with their input code fitted to each test cycle's mesh (Adam on z, or on
+# PCA's codes, the body's β fixed at the truth; `mocapviz.tasks.cvae4d_eval.fitted_errors`), on
+# a seeded draw of at most 40 cycles per test set. `unfitted_mean` is the same model's error on
+# those cycles with its own code (the encoder's μ, PCA's projection). The gap is what the
+# encoder (or PCA's projection, optimal in χ but not in vertices) leaves on the table; the
+# fitted error is what the decoder can express. Both modes read the committed table (the fits
+# take minutes: `python -m data_prep train-cvae --table`).
+
+# %%
+from mocapviz.tasks.cvae4d_eval import FIT_SUFFIX
+
+committed_table = pd.read_csv(REPO_ROOT / TABLE, keep_default_na=False)
+fits = committed_table[committed_table.model.str.endswith(FIT_SUFFIX)]
+for t in sets:
+    for r in fits[fits.test_set == t].itertuples():
+        base = r.model[:-len(FIT_SUFFIX)]
+        print(f"'{t}' ({r.n} cycles) {base:14s}: own code {float(r.unfitted_mean):6.1f} mm -> fitted {r.mean:6.1f} mm "
+              f"({100 * (r.mean / float(r.unfitted_mean) - 1):+.0f} %)")
 
 # %% [markdown]
 # ### Where it holds and where it does not

@@ -286,6 +286,6 @@ print(f"check of the error's vertex sampling on the Fig. 9 fit: {N_EVAL_VERTICES
 #   surface (no noise, clothing or holes), which should favour us over real scans; the truth is
 #   an anny mesh, the paper's a scan;
 # - **the weights**: Eq. 6's adaptive weights are GradNorm ([42]); in a 100-step fit the time
-#   loss starts near its optimum, so its relative rate stays ~1 and GradNorm (α = 1.5) gives it
+#   loss starts near its optimum, so its relative rate stays ~1 and GradNorm gives it
 #   most of the weight, starving the spatial terms: the two GradNorm fits printed above are
 #   worse than fixed unit weights (m² for the spatial terms, normalised Φ² for time), which we use.

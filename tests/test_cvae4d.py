@@ -271,24 +271,65 @@ def test_beta_matters_to_the_committed_decoder(ds):
 
 def test_reconstruction_table_shape_and_current_with_the_checkpoints():
     from data_prep.sources import REPO_ROOT
-    from data_prep.train_cvae import TABLE, TABLE_MODELS, checkpoint_id
+    from data_prep.train_cvae import FIT_PER_SET, TABLE, TABLE_MODELS, checkpoint_id
     from data_prep.zoo import ZOO_DIR
+    from mocapviz.tasks.cvae4d_eval import FIT_SUFFIX
 
     t = pd.read_csv(REPO_ROOT / TABLE, keep_default_na=False)
     assert list(t.columns) == ["model", "test_set", "n", "mean", "median", "q1", "q3", "whislo", "whishi",
-                               "checkpoint", "dataset", "command"]
+                               "unfitted_mean", "checkpoint", "dataset", "command"]
     sets = ["held_out_bodies", "held_out_subjects", "held_out_takes"]
     models = ["pca", "mean_cycle", *TABLE_MODELS]
-    assert sorted(t.test_set.unique()) == sets and set(models) <= set(t.model)
-    assert set(t.model) - set(models) <= {f"{n}_seed1" for n in TABLE_MODELS}
+    fits = [f"{n}{FIT_SUFFIX}" for n in ("pca", *TABLE_MODELS)]
+    assert sorted(t.test_set.unique()) == sets and set(models + fits) <= set(t.model)
+    assert set(t.model) - set(models + fits) <= {f"{n}_seed1" for n in TABLE_MODELS}
     assert len(t) == t.model.nunique() * len(sets) and not t.duplicated(["model", "test_set"]).any()
-    assert (t.groupby("test_set").n.nunique() == 1).all() and (t.n > 0).all()  # every model on the same cycles
+    plain, fitted = t[~t.model.isin(fits)], t[t.model.isin(fits)]
+    for part in (plain, fitted):  # every model on the same cycles
+        assert (part.groupby("test_set").n.nunique() == 1).all() and (part.n > 0).all()
+    assert (fitted.n <= FIT_PER_SET).all() and (plain.unfitted_mean == "").all()
+    # a fit starts from the model's own code and only descends (on a vertex subset; the table is on all)
+    assert (fitted["mean"] <= fitted.unfitted_mean.astype(float) * 1.02).all()
     assert ((t.whislo <= t.q1) & (t.q1 <= t["median"]) & (t["median"] <= t.q3) & (t.q3 <= t.whishi)).all()
     assert (t["mean"] > 0).all()
     for name in TABLE_MODELS:  # made from the committed files (else: python -m data_prep train-cvae --table)
-        assert (t.loc[t.model == name, "checkpoint"] == checkpoint_id(ZOO_DIR / f"{name}.safetensors")).all()
-    assert (t.loc[t.model.isin(["pca", "mean_cycle"]), "checkpoint"] == "").all()
-    assert (t.n[t.test_set != "held_out_subjects"] >= 30).all()  # test sets that can tell
+        current = checkpoint_id(ZOO_DIR / f"{name}.safetensors")
+        assert (t.loc[t.model.isin([name, name + FIT_SUFFIX]), "checkpoint"] == current).all()
+    assert (t.loc[t.model.isin(["pca", "mean_cycle", "pca" + FIT_SUFFIX]), "checkpoint"] == "").all()
+    assert (plain.n[plain.test_set != "held_out_subjects"] >= 30).all()  # test sets that can tell
+
+
+def test_fitting_each_code_beats_the_encoder_and_pca_decodes_its_rebuild():
+    """The "z optimised" probe on a toy: the mesh is chi itself (3 numbers a vertex), where PCA's
+    projection is already the best code (a fit stays within 1 % of it: Adam circles the optimum),
+    and a fit of an untrained CVAE's z beats its encoder; PCADecoder(codes) is PCABaseline's rebuild."""
+    import torch
+
+    from mocapviz.models.cvae4d import CVAE4D, CVAE4DConfig
+    from mocapviz.tasks.cvae4d_eval import PCABaseline, PCADecoder, fitted_errors, start_codes, vertex_errors
+
+    class Identity:  # chi (B, N, 6) as two "vertices" a frame
+        def __call__(self, chi, beta, vertex_major=False):
+            return torch.as_tensor(chi).reshape(chi.shape[0], chi.shape[1], -1, 3)
+
+    rng = np.random.default_rng(0)
+    chi = rng.normal(size=(40, 5, 6)).astype(np.float32)
+    beta = rng.uniform(size=(40, 6)).astype(np.float32)
+    pca = PCABaseline(chi[:30], beta[:30], latent=2)
+    dec = PCADecoder(pca)
+    np.testing.assert_allclose(dec.decode(start_codes(dec, chi[30:], beta[30:]), None).numpy(),
+                               pca.reconstruct(chi[30:], beta[30:]), atol=1e-4)
+    mesh = Identity()
+    before = vertex_errors(mesh, chi[30:], pca.reconstruct(chi[30:], beta[30:]), beta[30:])
+    after = fitted_errors(dec, chi[30:], beta[30:], mesh, mesh)
+    assert (after <= 1.01 * before).all()
+    torch.manual_seed(0)
+    cvae = CVAE4D(CVAE4DConfig(n_frames=5, n_chi=6, latent=4, n_beta=6, hidden=(16,))).eval()
+    with torch.no_grad():
+        encoded = cvae(torch.as_tensor(chi[30:]), torch.as_tensor(beta[30:]))["chi"].numpy()
+    before = vertex_errors(mesh, chi[30:], encoded, beta[30:])
+    after = fitted_errors(cvae, chi[30:], beta[30:], mesh, mesh)
+    assert (after <= 1.01 * before).all() and after.mean() < 0.97 * before.mean()
 
 
 def test_ablation_table_labels_pools_and_summarises():
@@ -355,3 +396,35 @@ def test_paper_ordering_holds_by_hand():
     # KL weight: the error must rise at every step
     assert paper_ordering_holds(steps([(0.001, 0.01, False), (0.01, 0.1, False)]), "kl_weight")
     assert not paper_ordering_holds(steps([(0.001, 0.01, True), (0.01, 0.1, False)]), "kl_weight")
+
+
+def _committed_logs():
+    from data_prep.train_cvae import TABLE_MODELS
+    from data_prep.zoo import ZOO_DIR
+    return {name: pd.read_csv(ZOO_DIR / f"{name}_losses.csv") for name in TABLE_MODELS}
+
+
+def test_committed_models_use_the_validated_alpha_and_mostly_keep_weights_within_10x():
+    """Both committed phases trained at the GradNorm alpha the validation sweep chose
+    (results/cvae4d_alpha_sweep.csv), and in most epochs no step had two weights more than 10x
+    apart (``w_ratio_max``: the largest ratio over an epoch's steps)."""
+    from data_prep.sources import REPO_ROOT
+    from data_prep.train_cvae import SWEEP_TABLE
+    from data_prep.zoo import ZOO_DIR
+    from mocapviz.zoo import load_cvae4d
+
+    sweep = pd.read_csv(REPO_ROOT / SWEEP_TABLE)
+    chosen = float(sweep.loc[sweep.chosen, "alpha"].iloc[0])
+    assert chosen == sweep.loc[sweep.val_mean_mm.idxmin(), "alpha"]
+    for name, log in _committed_logs().items():
+        assert load_cvae4d(name, ZOO_DIR)[1]["train_config"]["alpha"] == chosen
+        assert (log["w_ratio_max"] < 10).mean() > 0.8, name
+
+
+@pytest.mark.xfail(strict=True, reason="phase 1 (700 epochs at alpha 0.5): 65 of 700 epochs had a step with weights over "
+                                       "10x apart, up to 685x (epoch 609: the time weight near the floor); the share "
+                                       "grows with training (0 % of epochs 1-99, 16 % of 500-700) as the time loss's "
+                                       "rate falls and its per-batch ratio gets noisy")
+def test_committed_gradnorm_weights_stay_within_10x_at_every_step():
+    for name, log in _committed_logs().items():
+        assert log["w_ratio_max"].max() < 10, name

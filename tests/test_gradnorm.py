@@ -108,8 +108,9 @@ def test_same_task_at_two_scales_gets_equal_weights():
 
 def test_raw_loss_gradnorm_puts_the_scale_into_the_weights():
     """Without the normalisation (the code before the normalisation, apart from its floor) the 1000x task's
-    weight is pushed to the floor: weights ~1000x apart (before: to 1e-6, 2e6x apart)."""
-    gn = _toy(normalise=False)
+    weight is pushed to the floor: weights ~1000x apart (before: to 1e-6, 2e6x apart). At the
+    alpha of those days (1.5); at 0.5 the weight stops just above the floor."""
+    gn = _toy(normalise=False, alpha=1.5)
     assert _weight_ratios(gn, after=100).min() > 100
     assert gn.current()["thousand"] == pytest.approx(0.002, rel=0.2)  # the floor, 1e-3 x 2 tasks
 

@@ -34,7 +34,7 @@ mean) and the average adult beta, minimising
   observed frames (normalised Phi units, as in training).
 
 **The weights.** Eq. 6's adaptive weights are the paper's [42], GradNorm
-(:mod:`mocapviz.training.gradnorm`, alpha 1.5); ``weighting="gradnorm"`` balances them at the
+(:mod:`mocapviz.training.gradnorm`, its default alpha); ``weighting="gradnorm"`` balances them at the
 latent z, the one parameter every task depends on (one output tensor carries chi and beta, so
 each task's gradient sees every path). In a 100-step fit it hurts: the time loss starts near
 its optimum, its relative rate stays ~1, and GradNorm hands it most of the weight while the

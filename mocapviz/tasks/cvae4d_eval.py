@@ -215,3 +215,88 @@ def reconstruction_errors(ds, models: dict, body=None, pca_latent: int | None = 
         for name, err in vertex_errors_many(mesher, ds.chi[idx], chi_hats, ds.beta[idx]).items():
             errors[(name, t)] = err
     return errors
+
+
+# ------------------------------------------------------------- codes optimised per cycle
+# How much an encoder loses: the same decoder with its input code fitted to each test cycle's
+# mesh (Adam, the body beta fixed at the truth), against the code the encoder (or PCA's
+# projection, optimal in chi but not in vertices) gives. Fig. 5's "z optimised" rows.
+FIT_SUFFIX = "_fit"
+FIT_CONFIG = dict(steps=150, lr=0.05, fit_beta=False)  # fit_latent's defaults, half the step: codes start close
+FIT_VERTICES = 512                                     # the fit's loss: a farthest-point subset of anny's vertices
+
+
+class PCADecoder(torch.nn.Module):
+    """A :class:`PCABaseline` as a decoder of its codes: chi_hat = mean + code @ components (the
+    beta part of the rebuild dropped), so :func:`fit_latent` can fit its codes like a CVAE's z."""
+
+    def __init__(self, pca: PCABaseline):
+        super().__init__()
+        n_chi = int(np.prod(pca.shape))
+        self.pca, self.shape = pca, pca.shape
+        self.register_buffer("mean", torch.as_tensor(pca.pca.mean_[:n_chi], dtype=torch.float32))
+        self.register_buffer("components", torch.as_tensor(pca.pca.components_[:, :n_chi], dtype=torch.float32))
+
+    def codes(self, chi: np.ndarray, beta: np.ndarray) -> torch.Tensor:
+        return torch.as_tensor(self.pca.pca.transform(self.pca._stack(chi, beta)), dtype=torch.float32)
+
+    def decode(self, z: torch.Tensor, beta: torch.Tensor) -> torch.Tensor:
+        return (self.mean + z @ self.components).reshape((len(z),) + tuple(self.shape))
+
+
+def start_codes(decoder, chi: np.ndarray, beta: np.ndarray) -> torch.Tensor:
+    """The code a model gives a cycle without fitting: the CVAE encoder's mu, PCA's projection."""
+    if isinstance(decoder, PCADecoder):
+        return decoder.codes(chi, beta)
+    with torch.no_grad():
+        return decoder.encode(torch.as_tensor(chi))[0]
+
+
+def fitted_errors(decoder, chi: np.ndarray, beta: np.ndarray, fit_mesher, mesher, batch: int = 16,
+                  progress: bool = False) -> np.ndarray:
+    """Per-cycle mean vertex errors (mm, on ``mesher``'s vertices) after fitting each cycle's code
+    from :func:`start_codes` to its own mesh on ``fit_mesher``'s vertices (:data:`FIT_CONFIG`)."""
+    from tqdm.auto import tqdm
+
+    from mocapviz.tasks.cvae4d_fit import FitConfig, fit_latent
+
+    out = []
+    for i in tqdm(range(0, len(chi), batch), desc="codes fitted per cycle", disable=not progress, leave=False):
+        c, b = chi[i:i + batch], torch.as_tensor(beta[i:i + batch])
+        with torch.no_grad():
+            target = fit_mesher(torch.as_tensor(c), b)
+
+        def loss_fn(chi_hat, beta_):
+            return (fit_mesher(chi_hat, beta_) - target).pow(2).sum(-1).flatten(1).mean(1)
+        fit = fit_latent(decoder, loss_fn, start_codes(decoder, c, beta[i:i + batch]), b, FitConfig(**FIT_CONFIG))
+        out.append(vertex_errors(mesher, c, fit.chi.numpy(), beta[i:i + batch]))
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def fit_subsets(ds, per_set: int, seed: int = 0) -> dict[str, np.ndarray]:
+    """At most ``per_set`` cycles of each test set (seeded draw, sorted): fits cost ~100x a pass."""
+    rng = np.random.default_rng(seed)
+    return {t: np.sort(idx if len(idx) <= per_set else rng.choice(idx, per_set, replace=False))
+            for t, idx in test_sets(ds).items()}
+
+
+def fitted_reconstruction_errors(ds, models: dict, per_set: int, body=None, pca_latent: int | None = None,
+                                 progress: bool = False) -> dict[tuple[str, str], np.ndarray]:
+    """:func:`reconstruction_errors` with every code fitted per cycle (:func:`fitted_errors`), on
+    :func:`fit_subsets`' cycles, for PCA and each CVAE: {(name + FIT_SUFFIX, test set): errors}."""
+    from mocapviz.bodies.anny_model import body_model
+    from mocapviz.bodies.torch_mesh import ChiMesher
+    from mocapviz.tasks.cvae4d_completion import completion_mesher
+
+    body = body or body_model()
+    mesher = ChiMesher(body, ds.gamma_scale)
+    fit_mesher = completion_mesher(body, ds.gamma_scale, FIT_VERTICES)
+    latent = pca_latent or next(iter(models.values())).cfg.latent
+    train_idx, _ = split_indices(ds)
+    decoders = {"pca": PCADecoder(PCABaseline(ds.chi[train_idx], ds.beta[train_idx], latent)), **models}
+    errors = {}
+    for t, idx in fit_subsets(ds, per_set).items():
+        for name, dec in decoders.items():
+            errors[(name + FIT_SUFFIX, t)] = fitted_errors(dec, ds.chi[idx], ds.beta[idx], fit_mesher, mesher,
+                                                           progress=progress)
+    return errors
