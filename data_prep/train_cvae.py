@@ -37,6 +37,7 @@ ABLATION_REFERENCE = {"latent": 64, "kl_weight": 0.01}  # the committed models' 
 # widths (256, 256) a phase-1 epoch took 3-4 wall s on one thread of a shared machine (~4.5 min a
 # run, ~32 min for the seven): the session's budget set the number, not convergence.
 ABLATION_EPOCHS = 80
+ABLATION_ALPHA = 1.5  # GradNorm's alpha when the committed ablation table was made (before the alpha sweep)
 ABLATION_COMMAND = "python -m data_prep train-cvae --ablations"
 TABLE = Path("results") / "cvae4d_reconstruction.csv"
 ABLATION_TABLE = Path("results") / "cvae4d_ablations.csv"
@@ -214,7 +215,7 @@ def run_ablations(a: argparse.Namespace, ds) -> int:
 
     command, paths = ablation_command(a), {}
     for name, (_, _, kw) in ABLATIONS.items():
-        cfg = with_overrides(CVAE_CONFIGS["phase1"], epochs=a.epochs or ABLATION_EPOCHS, **kw)
+        cfg = with_overrides(CVAE_CONFIGS["phase1"], epochs=a.epochs or ABLATION_EPOCHS, alpha=ABLATION_ALPHA, **kw)
         paths[name] = _short_run(ds, name, cfg, CACHE_DIR / "runs" / f"abl_{name}", command)
     return write_ablation_table(ds, paths, command)
 
