@@ -79,9 +79,15 @@ def test_retired_models_left_the_zoo_and_still_load_from_the_tag():
 
 
 def test_cvae4d_epochs_reads_what_the_run_did_not_what_it_was_configured_for():
-    from mocapviz.zoo import cvae4d_epochs, load_cvae4d
+    import pandas as pd
+
+    from mocapviz.zoo import cvae4d_epochs, find_checkpoint, load_cvae4d
     for name in ("cvae4d_phase1", "cvae4d_phase2"):
         run, kept = cvae4d_epochs(name)
         configured = load_cvae4d(name)[1]["train_config"]["epochs"]
+        log = pd.read_csv(find_checkpoint(name).with_name(f"{name}_losses.csv"))
         assert 1 <= kept <= run <= configured
-    assert cvae4d_epochs("cvae4d_phase2")[0] < load_cvae4d("cvae4d_phase2")[1]["train_config"]["epochs"]
+        assert run == int(log["epoch"].max()) and kept == int(log["kept_epoch"].dropna().iloc[-1])
+    run, kept = cvae4d_epochs("cvae4d_phase1")
+    assert kept < run  # the best validation epoch was kept, not the last
+
