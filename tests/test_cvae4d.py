@@ -428,3 +428,15 @@ def test_committed_models_use_the_validated_alpha_and_mostly_keep_weights_within
 def test_committed_gradnorm_weights_stay_within_10x_at_every_step():
     for name, log in _committed_logs().items():
         assert log["w_ratio_max"].max() < 10, name
+
+
+def test_gaps_beyond_spread_by_hand():
+    """Takes (ours): seeds 42.4 / 41.3 and 36.8 / 36.6, PCA 55.9: spread 1.1, gaps 4.5 and 13.5;
+    bodies: 45.0 / 41.3 and 38.4 / 36.2: spread 3.7 > gap 2.9."""
+    from mocapviz.tasks.cvae4d_eval import gaps_beyond_spread
+
+    g = gaps_beyond_spread((42.4, 41.3), (36.8, 36.6), 55.9)
+    assert g["spread"] == pytest.approx(1.1) and g["gap_phase1_phase2"] == pytest.approx(4.5)
+    assert g["gap_pca_phase1"] == pytest.approx(13.5) and g["holds"]
+    g = gaps_beyond_spread((45.0, 41.3), (38.4, 36.2), 57.0)
+    assert g["spread"] == pytest.approx(3.7) and g["gap_phase1_phase2"] == pytest.approx(2.9) and not g["holds"]

@@ -142,6 +142,16 @@ def paper_ordering_holds(steps: pd.DataFrame, ablation: str) -> bool:
     return not steps.falls.any()
 
 
+def gaps_beyond_spread(phase1: tuple[float, float], phase2: tuple[float, float], pca: float) -> dict:
+    """Fig. 5's ordering against the run-to-run spread, from two training seeds' mean errors of
+    each phase: the spread (the larger seed-to-seed difference of a phase), the worst-case gaps
+    (phase 1's better seed minus phase 2's worse; PCA minus phase 1's worse) and whether both
+    gaps exceed the spread."""
+    spread = max(abs(phase1[0] - phase1[1]), abs(phase2[0] - phase2[1]))
+    gaps = (min(phase1) - max(phase2), pca - max(phase1))
+    return dict(spread=spread, gap_phase1_phase2=gaps[0], gap_pca_phase1=gaps[1], holds=min(gaps) > spread)
+
+
 def boxplot_table(ax, rows: pd.DataFrame, labels: list[str], title: str = ""):
     """The Tukey boxes of :func:`error_table` rows (one per label, in order; outliers not drawn)."""
     stats = [dict(label=lab, med=r["median"], q1=r["q1"], q3=r["q3"], whislo=r["whislo"], whishi=r["whishi"],
