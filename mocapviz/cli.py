@@ -52,7 +52,7 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--temperature", type=float, default=SAMPLING_TEMPERATURE, metavar="T",
                    help="with --sample, scale the spread of the draws by T: 1 is the model's own (default: %(default)s)")
     p.add_argument("--pace", choices=PACES, default=PACE,
-                   help="without --path: hold the speed the model plans at the seed's end (seed), or follow the "
+                   help="without --path: hold the seed's own pace (its last second's; seed), or follow the "
                         "speed it plans frame by frame (network; runs tend to slow down; default: %(default)s)")
     p.add_argument("--noise-correlation", type=float, default=0.0, metavar="RHO",
                    help="with --sample, the draws' correlation from one frame to the next (0: independent, the "

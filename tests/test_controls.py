@@ -103,6 +103,21 @@ def test_free_running_holds_the_seeds_plan_speed_until_the_type_changes():
         FreeRunning("user")
 
 
+def test_free_running_holds_the_seeds_last_known_plan_over_the_predicted_one():
+    """A seed cut from a file knows no future in its last second: its own c^d (known) ends
+    before the seed does, the rest is the network's. The held pace is the last known plan's
+    (character 0: 0.6 m/s, not the 2.6 predicted at the end); with none known, the end's (1)."""
+    n_seed, x = 5, np.zeros((2, LAYOUT.n_x), np.float32)
+    src = FreeRunning("seed")
+    src.start(normaliser(), LAYOUT, 2, n_seed)
+    src.fed(0, straight(0.9, 2), known=np.array([True, False]))
+    src.fed(1, straight(0.6, 2), known=np.array([True, False]))   # character 0's last own plan
+    src.fed(2, straight(2.6, 2), known=np.array([False, False]))
+    assert src.speed is None
+    src.fed(3, straight(2.6, 2), known=np.array([False, False]))  # the seed's last frame: predicted
+    np.testing.assert_allclose(src.speed, [0.6, 2.6], rtol=1e-6)
+
+
 def test_steered_turns_left_for_plus_one_and_sets_the_speed():
     """+1 bends the predicted plan to the character's left (+X), by h 0.015 i / 5 at point i;
     -1 to the right; a speed rescales it; per character in a batch."""

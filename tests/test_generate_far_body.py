@@ -22,7 +22,7 @@ from mocapviz.io.asfamc import read_asf
 from mocapviz.motion import Motion
 from mocapviz.skeleton import CCNET_25_JOINTS
 from mocapviz.skeleton_map import map_skeleton
-from mocapviz.tasks.generate_bvh import generate_from_seed, grounded, load_seed, seed_rig, vicon_legs
+from mocapviz.tasks.generate_bvh import generate_from_seed, generation_body, grounded, load_seed, seed_rig, vicon_legs
 from mocapviz.tasks.generation_defaults import GENERATION_MODEL
 from mocapviz.tasks.rig import known_body, leg_length, retarget_to
 from mocapviz.training.checkpoint import load_checkpoint
@@ -117,6 +117,23 @@ def test_known_body_is_the_dataset_bandai_body(data_dir, checkpoint):
     body = known_body(_meta(checkpoint)["joint_names"], _meta(checkpoint)["parents"])
     assert body.names == rig.skeleton.names
     np.testing.assert_allclose(body.offsets, rig.skeleton.offsets, atol=1e-3)
+
+
+def test_auto_body_is_the_training_body_unless_the_seed_is_on_it(data_dir, checkpoint):
+    """A Bandai seed generates on its own body; the held-out HDM05 subject's VICON body (a body
+    the training data had for others) on the training body scaled to its legs."""
+    meta = _meta(checkpoint)
+    bandai = load_seed(data_dir / SOURCE)
+    rig = seed_rig(bandai, map_skeleton(bandai.skeleton).mapping, meta, checkpoint[1])
+    assert generation_body(rig, meta, "auto") is None and generation_body(rig, meta, "own") is None
+    assert generation_body(rig, meta, "training") is not None
+    tr = load_seed(data_dir / "hdm05/tr/HDM_tr_jogLeftCircle4StepsRstart_015_120.amc",
+                   asf=data_dir / "hdm05/tr/HDM_tr.asf")
+    rig = seed_rig(tr, map_skeleton(tr.skeleton).mapping, meta, checkpoint[1])
+    body = generation_body(rig, meta, "auto")
+    assert body is not None and body.names == rig.skeleton.names
+    assert leg_length(body) == pytest.approx(leg_length(rig.skeleton), rel=1e-6)
+    assert generation_body(rig, meta, "own") is None
 
 
 def test_retarget_to_and_back(mixamo_seed, checkpoint):

@@ -5,8 +5,8 @@
 - :class:`PathControls`: a user path of world ground points; c^d is recomputed every frame from
   the character's integrated root and heading (:func:`path_controls`), so it steers onto the path;
 - :class:`FreeRunning`: the network's own predicted c^d (the paper's interactive fallback), as
-  predicted (``pace="network"``) or scaled to the speed of the seed's last c^d (``"seed"``,
-  :func:`at_speed`) until the character's motion type changes;
+  predicted (``pace="network"``) or scaled to the seed's pace (``"seed"``, the speed of its
+  last known c^d, :func:`at_speed`) until the character's motion type changes;
 - :class:`Steered`: the predicted c^d bent by a turn and rescaled to a requested speed
   (:func:`steer`, paper §4.4), both set before each frame (:class:`mocapviz.tasks.control.ControlSession`).
 
@@ -91,8 +91,9 @@ class ControlSource:
         at frame t (B, n_traj; zeros before the first step)."""
         raise NotImplementedError
 
-    def fed(self, t: int, c_next: np.ndarray) -> None:
-        """The c^d (B, n_traj) the generator fed with frame t."""
+    def fed(self, t: int, c_next: np.ndarray, known: np.ndarray | None = None) -> None:
+        """The c^d (B, n_traj) the generator fed with frame t; ``known`` (B,) bool, during the
+        seed: the row is the seed's own c^d (not a prediction)."""
 
     def types_changed(self, changed: np.ndarray) -> None:
         """``changed`` (B,) bool: these characters' motion types change from this frame on."""
@@ -135,11 +136,18 @@ class PathControls(ControlSource):
 
 
 class FreeRunning(ControlSource):
-    """The network's own predicted c^d. ``pace="seed"``: rescaled every frame to the speed of the
-    c^d the last seed frame was fed (:func:`at_speed`), per character until its motion type
-    changes (a run after a walk has its own pace); ``"network"``: as predicted. Why "seed": fed
-    back, the predicted plan slows (measured: ccnet_phase_lerp's test run seed at 0.27x the real
-    runs' ground speed over seconds 30-60; held, 0.84x)."""
+    """The network's own predicted c^d. ``pace="seed"``: rescaled every frame to the seed's pace
+    (:func:`at_speed`), per character until its motion type changes (a run after a walk has its
+    own pace); ``"network"``: as predicted. Why "seed": fed back, the predicted plan slows
+    (measured: ccnet_phase_lerp's test run seed at 0.27x the real runs' ground speed over seconds
+    30-60; held, 0.84x).
+
+    The seed's pace is the speed of the last c^d fed during the seed that was the seed's own
+    (``known`` in :meth:`fed`): a seed cut from a file knows no future in its last second, so its
+    last known plan is the one that spans that second; where no fed c^d was known, that of the last
+    seed frame (then the network's prediction). Why not the plan at the seed's end: there the
+    network predicts it, and on the held-out HDM05 subject's sneak (0.56 m/s in its last second)
+    it planned 2.6 m/s, so the generated sneak went at 4.95x the seed's ground speed."""
 
     def __init__(self, pace: str = "network"):
         if pace not in PACES:
@@ -149,6 +157,7 @@ class FreeRunning(ControlSource):
     def start(self, norm, layout, batch, n_seed):
         super().start(norm, layout, batch, n_seed)
         self.speed = None  # (B,) m/s once the seed's last c^d is fed; NaN: as predicted
+        self.known_speed = np.full(batch, np.nan)  # the speed of the last fed c^d that was the seed's own
 
     def next(self, t, x_t, pred_traj):
         if self.speed is None:
@@ -157,9 +166,14 @@ class FreeRunning(ControlSource):
         held = n.norm_traj(at_speed(n.denorm_traj(pred_traj), np.where(free, 0.0, self.speed)))
         return np.where(free[:, None], pred_traj[:, :held.shape[1]], held) if free.any() else held
 
-    def fed(self, t, c_next):
-        if self.pace == "seed" and t + 2 == self.n_seed:
-            self.speed = plan_speed(self.norm.denorm_traj(c_next))
+    def fed(self, t, c_next, known=None):
+        if self.pace != "seed" or t + 1 >= self.n_seed:
+            return
+        speed = plan_speed(self.norm.denorm_traj(c_next))
+        if known is not None:
+            self.known_speed = np.where(known, speed, self.known_speed)
+        if t + 2 == self.n_seed:
+            self.speed = np.where(np.isnan(self.known_speed), speed, self.known_speed)
 
     def types_changed(self, changed):
         if self.speed is not None:

@@ -259,16 +259,17 @@ class Generator:
                 controls.types_changed((types[:, t + 1] != cur_type).any(axis=1))
                 cur_type = types[:, t + 1]
                 self.set_types(cur_type)
-            c_next = controls.next(t, xs[:, t], pred_traj)
+            c_next, known = controls.next(t, xs[:, t], pred_traj), None
             if t + 1 < s and seed_n is not None:  # the seed's own c^d where it has one (not NaN)
                 seed_c = seed_n[:, t + 1]
+                known = ~np.isnan(seed_c).any(axis=1)
                 c_next = np.where(np.isnan(seed_c), c_next[:, :seed_c.shape[1]], seed_c)
             if phase is not None:  # the seed's phase, then turned on at its pace or the network's own
                 if t + 1 >= s and self.phase_source == "network":
                     phase[:, t + 1] = on_circle(pred_traj[:, -2:])
                 c_next = np.concatenate([c_next[:, :self.cfg.n_traj - 2], phase[:, t + 1]], axis=1)
             c_next = np.ascontiguousarray(c_next)
-            controls.fed(t, c_next)
+            controls.fed(t, c_next, known)
             frame, pred_traj = self.advance(xs[:, t], c_next, t, write=t + 1 >= s)
             if frame is not None:
                 xs[:, t + 1] = frame

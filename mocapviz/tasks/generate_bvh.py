@@ -180,16 +180,26 @@ def generation_body(rig: ModelRig, dataset_meta: dict, body: str = "auto"):
     """The skeleton (model joints) the network generates on for a seed on ``rig``, or None for
     the seed's own (:func:`generate_from_seed`, ``body``): "own"; "training": the training body
     (:func:`mocapviz.tasks.rig.known_body`, Bandai's) scaled to the seed's leg length; "auto":
-    the training body for a skeleton the training data did not have (``rig`` aligned to the
-    training rest), else its own."""
+    the training body, unless the seed is on it already (offsets within 1 % of the leg length).
+
+    Why "auto" takes the training body for the VICON skeletons too (HDM05's and CMU's, which the
+    training data had, for 10 % of its frames): on its own body the held-out HDM05 subject tr's
+    jog came out upright (forward lean +0.8 degrees from its rest against real jogs' 4.8-17.8,
+    the seed's +24.6) and its sneak at 1.59x the seed's pace; on the training body the same jog
+    leans +9.4 and the sneak keeps 0.99x its pace (``benchmarks/bench_generate_files.py --body
+    own|training``, docs/your_own_file.md)."""
     if body not in BODIES:
         raise GenerateError(f"body is one of {', '.join(BODIES)}, got {body!r}")
-    if body == "own" or (body == "auto" and not rig.aligned_to_canonical):
+    if body == "own":
         return None
     trained = known_body(dataset_meta["joint_names"], dataset_meta["parents"])
-    k = leg_length(rig.skeleton) / leg_length(trained)
-    return Skeleton(trained.names, trained.parents, k * trained.offsets, tuple((j, tuple(k * np.asarray(o)))
-                                                                             for j, o in trained.end_sites))
+    leg = leg_length(rig.skeleton)
+    k = leg / leg_length(trained)
+    scaled = Skeleton(trained.names, trained.parents, k * trained.offsets,
+                      tuple((j, tuple(k * np.asarray(o))) for j, o in trained.end_sites))
+    if body == "auto" and np.abs(np.asarray(rig.skeleton.offsets) - scaled.offsets).max() < 0.01 * leg:
+        return None
+    return scaled
 
 
 def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk",), seconds: float = 10.0,
@@ -209,11 +219,11 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     may lie from the training skeletons' mean (see :func:`limit_skeleton`); ``temperature``:
     with ``sample``, frames are drawn from N(mean, (temperature * sigma)^2) (a latent model
     draws z instead); ``noise_correlation``: the draws' correlation from frame to frame;
-    ``pace``: without a path, "seed" holds the speed of the plan at the seed's end, "network"
+    ``pace``: without a path, "seed" holds the seed's pace (the speed of its last second), "network"
     feeds the network's own plan as predicted (:class:`mocapviz.tasks.generate.Generator`);
-    ``body``: the skeleton the network generates on (:func:`generation_body`): "auto" (a body the
-    training data did not have is generated on the training body and retargeted back, others on
-    their own), "own", or "training" (every seed on the training body, for comparisons);
+    ``body``: the skeleton the network generates on (:func:`generation_body`): "auto" (the
+    training body, scaled to the seed's legs, unless the seed is on it already; the result is
+    retargeted back), "own", or "training" (every seed on the training body, for comparisons);
     ``ground``: keep the generated body's feet on the seed's floor (:func:`grounded`).
 
     Any seed of one frame or more: one shorter than the model's receptive field + 1 frames
@@ -225,8 +235,8 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     model trained on ~20 VICON skeletons crouched to half height from a Bandai seed's own c^s
     (10 standard deviations out at the hips) and stood with it limited to 3.
 
-    A body unlike the training bodies (one aligned to the training rest by :func:`seed_rig`:
-    Mixamo, Xsens MVN, a 3ds-Max-style CMU hierarchy) is not generated on at all: the seed's
+    A body other than the training body (Mixamo, Xsens MVN, a 3ds-Max-style CMU hierarchy, the
+    VICON skeletons of HDM05 and CMU) is not generated on at all: the seed's
     motion goes onto the training body scaled to the seed's leg length (Bandai's, 90 % of the
     training frames: :func:`mocapviz.tasks.rig.known_body`) with the library's retargeting and
     leg IK (:func:`mocapviz.tasks.rig.retarget_to`), the network continues it there with that

@@ -7,7 +7,8 @@ own defaults are the model's plain output: its own plan (pace "network") and tem
 # 0.25-0.30 m/s forward (docs/experiments.md, "Why the waving walked off", says what each costs)
 GENERATION_MODEL = "ccnet_generate"
 
-# "seed": without a path, hold the speed of the plan (c^d) at the seed's end. With the network's own
+# "seed": without a path, hold the seed's pace (the speed of its last own plan c^d: for a seed cut from
+# a file, its last second's; mocapviz.tasks.controls.FreeRunning says why). With the network's own
 # plan fed back frame by frame, ccnet_phase_lerp's Bandai run test seed slowed to 0.27x the real
 # runs' ground speed over seconds 30-60; held, 0.84x (docs/experiments.md)
 PACE = "seed"

@@ -39,7 +39,7 @@ whatever the chain, with the dropped joints held fixed.
 
 Two model skeletons share that rest convention, so a motion moves between them by its local
 rotations, the hip joints' midpoint and leg IK (:func:`retarget_to`): the generate command
-generates a body unlike the training bodies on the training body the repository knows
+generates any body but the training body on the training body the repository knows
 (:func:`known_body`) and brings the result back.
 """
 
