@@ -46,8 +46,8 @@ FIG_DIR = "../figures"
 # The $\omega$ of the partial losses are adaptive, by **GradNorm** (Chen et al. 2018,
 # `mocapviz.training.gradnorm`): each weight moves so that the weighted gradient norms at the
 # decoder's last hidden layer follow each loss's relative training rate to the power
-# $\alpha$ (printed below from the checkpoints; chosen on the validation cycles by
-# `python -m data_prep train-cvae --alpha-sweep`); weights sum to the number of tasks and restart
+# $\alpha$ (printed below from the checkpoints; `python -m data_prep train-cvae --alpha-sweep`
+# scores alphas on the validation cycles); weights sum to the number of tasks and restart
 # at 1 in phase 2. $\omega_{KL} = 0.01$
 # is fixed; the paper's "squared KL" we read as the closed-form KL of $\mathcal N(\mu, \sigma^2)$
 # to $\mathcal N(0, 1)$, summed over $z$ (`mocapviz.models.cvae4d.kl_divergence` says why).

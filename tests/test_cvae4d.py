@@ -404,30 +404,42 @@ def _committed_logs():
     return {name: pd.read_csv(ZOO_DIR / f"{name}_losses.csv") for name in TABLE_MODELS}
 
 
-def test_committed_models_use_the_validated_alpha_and_mostly_keep_weights_within_10x():
-    """Both committed phases trained at the GradNorm alpha the validation sweep chose
-    (results/cvae4d_alpha_sweep.csv), and in most epochs no step had two weights more than 10x
-    apart (``w_ratio_max``: the largest ratio over an epoch's steps)."""
+def _sweep_choice() -> float:
+    """The alpha results/cvae4d_alpha_sweep.csv chose: the lowest validation error among the
+    alphas whose weights stayed within SWEEP_MAX_RATIO."""
     from data_prep.sources import REPO_ROOT
-    from data_prep.train_cvae import SWEEP_TABLE
-    from data_prep.zoo import ZOO_DIR
-    from mocapviz.zoo import load_cvae4d
+    from data_prep.train_cvae import SWEEP_MAX_RATIO, SWEEP_TABLE
 
     sweep = pd.read_csv(REPO_ROOT / SWEEP_TABLE)
     chosen = float(sweep.loc[sweep.chosen, "alpha"].iloc[0])
-    assert chosen == sweep.loc[sweep.val_mean_mm.idxmin(), "alpha"]
-    for name, log in _committed_logs().items():
-        assert load_cvae4d(name, ZOO_DIR)[1]["train_config"]["alpha"] == chosen
-        assert (log["w_ratio_max"] < 10).mean() > 0.8, name
+    balanced = sweep[sweep.w_ratio_max < SWEEP_MAX_RATIO]
+    assert chosen == balanced.loc[balanced.val_mean_mm.idxmin(), "alpha"]
+    return chosen
 
 
-@pytest.mark.xfail(strict=True, reason="phase 1 (700 epochs at alpha 0.5): 65 of 700 epochs had a step with weights over "
-                                       "10x apart, up to 685x (epoch 609: the time weight near the floor); the share "
-                                       "grows with training (0 % of epochs 1-99, 16 % of 500-700) as the time loss's "
-                                       "rate falls and its per-batch ratio gets noisy")
-def test_committed_gradnorm_weights_stay_within_10x_at_every_step():
+def test_committed_models_step_log_weights_and_keep_weights_within_10x_at_every_step():
+    """Both committed phases trained with GradNorm's step on log-weights, and at no step of any
+    epoch were two weights more than 10x apart (``w_ratio_max``: the largest ratio over an
+    epoch's steps). With the additive step of before, 65 of phase 1's 700 epochs were (up to 685x)."""
+    from data_prep.zoo import ZOO_DIR
+    from mocapviz.zoo import load_cvae4d
+
+    _sweep_choice()
     for name, log in _committed_logs().items():
+        assert load_cvae4d(name, ZOO_DIR)[1]["train_config"]["gradnorm_step"] == "log", name
         assert log["w_ratio_max"].max() < 10, name
+
+
+@pytest.mark.xfail(strict=True, reason="the sweep redone with the log-weight step chose alpha 1.0 (56.93 mm on validation, "
+                                       "weights within 9.2x) over 0.5 (57.59 mm, 6.6x); the committed models were "
+                                       "trained at 0.5 before it finished: retraining both phases at 1.0 is open")
+def test_committed_models_use_the_validated_alpha():
+    from data_prep.zoo import ZOO_DIR
+    from mocapviz.zoo import load_cvae4d
+
+    chosen = _sweep_choice()
+    for name in _committed_logs():
+        assert load_cvae4d(name, ZOO_DIR)[1]["train_config"]["alpha"] == chosen, name
 
 
 def test_gaps_beyond_spread_by_hand():

@@ -107,12 +107,12 @@ def test_same_task_at_two_scales_gets_equal_weights():
 
 
 def test_raw_loss_gradnorm_puts_the_scale_into_the_weights():
-    """Without the normalisation (the code before the normalisation, apart from its floor) the 1000x task's
-    weight is pushed to the floor: weights ~1000x apart (before: to 1e-6, 2e6x apart). At the
-    alpha of those days (1.5); at 0.5 the weight stops just above the floor."""
+    """Without the normalisation the 1000x task's weight is pushed down until the weighted
+    gradients balance: weights hundreds of times apart (the log-step moves them about 2.5 % a
+    step, so it takes ~250 steps; the additive step of before hit its floor at once)."""
     gn = _toy(normalise=False, alpha=1.5)
-    assert _weight_ratios(gn, after=100).min() > 100
-    assert gn.current()["thousand"] == pytest.approx(0.002, rel=0.2)  # the floor, 1e-3 x 2 tasks
+    assert _weight_ratios(gn, after=300).min() > 100
+    assert gn.current()["thousand"] < 0.02
 
 
 def test_history_off_keeps_nothing():
@@ -122,8 +122,7 @@ def test_history_off_keeps_nothing():
 
 def test_reset_restores_unit_weights():
     gn = GradNorm(["a", "b"])
-    with torch.no_grad():
-        gn.weights.copy_(torch.tensor([1.9, 0.1]))
+    gn.set_weights([1.9, 0.1])
     gn.initial = torch.ones(2)
     gn.history.append({"w_a": 1.9})
     gn.reset(["spatial", "time"])
@@ -134,8 +133,7 @@ def test_network_gradient_is_the_weighted_sum():
     p = torch.nn.Parameter(torch.tensor([1.0, 2.0]))
     out = 1.0 * p
     gn = GradNorm(["a", "b"], normalise=False)
-    with torch.no_grad():
-        gn.weights.copy_(torch.tensor([0.5, 1.5]))
+    gn.set_weights([0.5, 1.5])
     info = gn.step([(out ** 2).sum(), 3 * out.sum()], out, p, extra=p.sum())
     # 0.5 * d(sum p^2) + 1.5 * d(3 sum p) + d(sum p)
     torch.testing.assert_close(p.grad, 0.5 * torch.tensor([2.0, 4.0]) + 1.5 * 3 + 1.0)
@@ -147,8 +145,7 @@ def test_normalised_gradient_divides_each_loss_by_its_first_value():
     p = torch.nn.Parameter(torch.tensor([1.0, 2.0]))
     out = 1.0 * p
     gn = GradNorm(["a", "b"])
-    with torch.no_grad():
-        gn.weights.copy_(torch.tensor([0.5, 1.5]))
+    gn.set_weights([0.5, 1.5])
     info = gn.step([(out ** 2).sum(), 3 * out.sum()], out, p)
     # first losses 5 and 9, S = 7: factors 7/5 and 7/9
     torch.testing.assert_close(p.grad, 0.5 * 7 / 5 * torch.tensor([2.0, 4.0]) + 1.5 * 7 / 9 * 3)
@@ -173,3 +170,34 @@ def test_phase2_logs_both_weights_both_losses_and_the_weight_ratio(data_dir):
         assert {"spatial", "time", "w_spatial", "w_time", "w_ratio_max"} <= set(r)
         assert r["w_spatial"] + r["w_time"] == pytest.approx(2.0, rel=1e-4)
         assert 1.0 <= r["w_ratio_max"] < 10
+
+
+def _noisy_toy(additive: bool, steps: int = 1200, spike=(600, 660)) -> float:
+    """Three tasks as in phase 1 (a slow one, a medium one and a near-linear fast one), fitted
+    on mini-batches of 32, with a transient: for the ``spike`` steps the slow task's loss is 10x
+    (a run of bad batches, as at epoch 609 of our first 700-epoch phase 1, whose pose loss jumped
+    and whose weights then spread 685x). Returns the largest weight ratio at any step after 50."""
+    g = torch.Generator().manual_seed(1)
+    x = torch.randn(4096, 8, generator=g)
+    a, b, c = (torch.randn(8, generator=g) for _ in range(3))
+    ys = [torch.sin(3 * x @ a), torch.sin(x @ b), 0.1 * x @ c]
+    torch.manual_seed(1)
+    trunk, heads = torch.nn.Linear(8, 32), torch.nn.Linear(32, 3)
+    opt = torch.optim.Adam([*trunk.parameters(), *heads.parameters()], lr=3e-3)
+    gn = GradNorm(["slow", "medium", "fast"], additive=additive)
+    for step in range(steps):
+        idx = torch.randint(0, len(x), (32,), generator=g)
+        out = heads(torch.tanh(trunk(x[idx])))
+        losses = [torch.nn.functional.mse_loss(out[:, i], y[idx]) for i, y in enumerate(ys)]
+        if spike[0] <= step < spike[1]:
+            losses[0] = 10 * losses[0]
+        opt.zero_grad()
+        gn.step(losses, out, trunk.weight)
+        opt.step()
+    return max(max(h[f"w_{n}"] for n in gn.names) / min(h[f"w_{n}"] for n in gn.names) for h in gn.history[50:])
+
+
+def test_log_weight_step_keeps_weights_within_10x_through_a_loss_spike_where_the_additive_step_does_not():
+    # measured: additive 681x (a weight at its floor), log-weights 7.2x
+    assert _noisy_toy(additive=True) > 100
+    assert _noisy_toy(additive=False) < 10

@@ -64,6 +64,7 @@ class CVAETrainConfig:
     hidden: tuple[int, ...] = CVAE4DConfig.hidden  # (256, 256): see there
     alpha: float = DEFAULT_ALPHA            # GradNorm asymmetry
     gradnorm_lr: float = DEFAULT_LR
+    gradnorm_step: str = "log"              # GradNorm's Adam step on the log-weights, or "additive" (Chen et al.)
     vertex_subset: int = 0                  # phase 2: 0 = every vertex, else a fixed subset of that size
     eval_every: int = 50                    # epochs between validation evaluations
     seed: int = 0
@@ -75,6 +76,8 @@ class CVAETrainConfig:
     def __post_init__(self):
         if self.phase not in TASKS:
             raise ValueError(f"phase must be 1 or 2, got {self.phase}")
+        if self.gradnorm_step not in ("log", "additive"):
+            raise ValueError(f"gradnorm_step must be 'log' or 'additive', got {self.gradnorm_step!r}")
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
 
     def to_json(self) -> str:
@@ -222,7 +225,8 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
         mesher = make_mesher(body or body_model(), ds.gamma_scale, cfg.vertex_subset)
     model.train()
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
-    gradnorm = GradNorm(TASKS[cfg.phase], alpha=cfg.alpha, lr=cfg.gradnorm_lr, keep_history=False)
+    gradnorm = GradNorm(TASKS[cfg.phase], alpha=cfg.alpha, lr=cfg.gradnorm_lr, keep_history=False,
+                        additive=cfg.gradnorm_step == "additive")
     weights = body_weights(ds, train_idx) if cfg.balance_bodies else None
     best = _Best()
     rows, t0 = [], time.perf_counter()
