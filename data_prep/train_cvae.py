@@ -24,7 +24,6 @@ The dataset is ``python -m data_prep build body4d`` (``--dataset quick``: its qu
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 from pathlib import Path
 
@@ -46,6 +45,11 @@ SWEEP_ALPHAS = (0.5, 1.0, 1.5)
 # ... among the alphas whose weights never went SWEEP_MAX_RATIO apart (the issue's bar; logged beside): with the
 # step on log-weights, 1.5 scored best (55.9 mm) with weights 31x apart
 SWEEP_MAX_RATIO = 10.0
+# ... neither in the short run nor in the full-length phase-1 runs trained at that alpha: the ratio keeps
+# growing after 80 epochs (alpha 1.0: 9.2x at 80, past 10x from epoch 110, 25.7x and 25.1x by 700 in
+# two seeds). alpha -> the loss logs of those runs (the committed model's, and alpha 1.0's, kept here)
+FULL_LENGTH_LOGS = {0.5: ["models/zoo/cvae4d_phase1_losses.csv"],
+                    1.0: ["results/cvae4d_alpha1_phase1_seed0_losses.csv", "results/cvae4d_alpha1_phase1_seed1_losses.csv"]}
 SWEEP_TABLE = Path("results") / "cvae4d_alpha_sweep.csv"
 SWEEP_COMMAND = "python -m data_prep train-cvae --alpha-sweep"
 TABLE_MODELS = ("cvae4d_phase1", "cvae4d_phase2")
@@ -71,6 +75,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--minutes", type=float, help="wall-clock budget (0: train every epoch)")
     p.add_argument("--seed", type=int, help="training seed (default 0)")
     p.add_argument("--alpha", type=float, help="GradNorm asymmetry (default: the config's)")
+    p.add_argument("--lr-end", type=float, help="the learning rate at the end as a fraction of the start (cosine "
+                   "decay; default 1: constant)")
     p.add_argument("--dataset", choices=("full", "quick"), default="full")
     p.add_argument("--data-dir")
     p.add_argument("--export", action="store_true", help="also write models/zoo/<name>.safetensors (+ losses)")
@@ -107,7 +113,8 @@ def _train_one(ds, name: str, cfg, init, export: bool, run: Path | None = None, 
 
 def _command(name: str, cfg) -> str:
     return (f"--phase {cfg.phase} --name {name} --epochs {cfg.epochs} --latent {cfg.latent} --kl {cfg.kl_weight} "
-            f"--minutes {cfg.minutes:g} --seed {cfg.seed} --alpha {cfg.alpha:g}")
+            f"--minutes {cfg.minutes:g} --seed {cfg.seed} --alpha {cfg.alpha:g}"
+            + (f" --lr-end {cfg.lr_end:g}" if cfg.lr_end != 1 else ""))
 
 
 def run(a: argparse.Namespace) -> int:
@@ -122,7 +129,7 @@ def run(a: argparse.Namespace) -> int:
         return run_alpha_sweep(a, ds)
     cfg = with_overrides(CVAE_CONFIGS[a.config or f"phase{a.phase}"], phase=a.phase, epochs=a.epochs,
                          latent=a.latent, kl_weight=a.kl, vertex_subset=a.vertex_subset, minutes=a.minutes,
-                         seed=a.seed, alpha=a.alpha)
+                         seed=a.seed, alpha=a.alpha, lr_end=a.lr_end)
     init = None
     if a.phase == 2:
         from mocapviz.zoo import find_checkpoint
@@ -199,12 +206,12 @@ def ablation_settings() -> dict:
 
 def _short_run(ds, name: str, cfg, run: Path, command: str) -> Path:
     """A short phase-1 run's checkpoint: reused when one with the same config and data exists."""
-    from mocapviz.training.cvae4d import data_fingerprint, load_cvae
+    from mocapviz.training.cvae4d import CVAETrainConfig, data_fingerprint, load_cvae
 
     path = run / "model.safetensors"
     if path.exists():
         meta = load_cvae(path)[1]
-        if meta["train_config"] == json.loads(cfg.to_json()) and meta["dataset"]["fingerprint"] == data_fingerprint(ds):
+        if CVAETrainConfig(**meta["train_config"]) == cfg and meta["dataset"]["fingerprint"] == data_fingerprint(ds):
             print(f"{name}: reusing {path} ({meta['seconds']} s of training)")
             return path
     return _train_one(ds, name, cfg, None, export=False, run=run, command=command) / "model.safetensors"
@@ -258,7 +265,8 @@ def run_alpha_sweep(a: argparse.Namespace, ds) -> int:
                          w_ratio_last_epoch=float(log["w_ratio_max"].iloc[-1]),
                          seconds=float(load_cvae(paths[alpha])[1]["seconds"])))
     table = pd.DataFrame(rows)
-    balanced = table[table["w_ratio_max"] < SWEEP_MAX_RATIO]
+    table["w_ratio_max_full_length"] = [full_length_ratio(alpha) for alpha in table["alpha"]]
+    balanced = table[(table["w_ratio_max"] < SWEEP_MAX_RATIO) & ~(table["w_ratio_max_full_length"] >= SWEEP_MAX_RATIO)]
     table["chosen"] = table["alpha"] == balanced.loc[balanced["val_mean_mm"].idxmin(), "alpha"]
     table["dataset"], table["command"] = ds.meta.get("hash"), command
     out = REPO_ROOT / SWEEP_TABLE
@@ -266,6 +274,18 @@ def run_alpha_sweep(a: argparse.Namespace, ds) -> int:
     print(table.drop(columns=["dataset", "command"]).to_string(index=False))
     print(f"written {out}")
     return 0
+
+
+def full_length_ratio(alpha: float) -> float:
+    """The largest GradNorm weight ratio at any step of the full-length phase-1 runs trained at
+    ``alpha`` (:data:`FULL_LENGTH_LOGS`; NaN where there is none)."""
+    import numpy as np
+    import pandas as pd
+
+    from data_prep.sources import REPO_ROOT
+
+    logs = [pd.read_csv(REPO_ROOT / p) for p in FULL_LENGTH_LOGS.get(float(alpha), [])]
+    return max((float(log["w_ratio_max"].max()) for log in logs), default=np.nan)
 
 
 def write_ablation_table(ds, paths: dict, command: str) -> int:

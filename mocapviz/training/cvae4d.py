@@ -32,6 +32,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
+import math
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -59,6 +60,7 @@ class CVAETrainConfig:
     epochs: int = 2000
     batch_size: int = 256
     lr: float = 1e-3
+    lr_end: float = 1.0                     # the learning rate at the end, as a fraction of lr (cosine decay; 1: constant)
     kl_weight: float = 0.01
     latent: int = 64
     hidden: tuple[int, ...] = CVAE4DConfig.hidden  # (256, 256): see there
@@ -78,6 +80,8 @@ class CVAETrainConfig:
             raise ValueError(f"phase must be 1 or 2, got {self.phase}")
         if self.gradnorm_step not in ("log", "additive"):
             raise ValueError(f"gradnorm_step must be 'log' or 'additive', got {self.gradnorm_step!r}")
+        if not 0 < self.lr_end <= 1:
+            raise ValueError(f"lr_end is a fraction of lr in (0, 1], got {self.lr_end}")
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
 
     def to_json(self) -> str:
@@ -231,6 +235,8 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
     best = _Best()
     rows, t0 = [], time.perf_counter()
     for epoch in tqdm(range(1, cfg.epochs + 1), desc=f"cvae4d phase {cfg.phase}", disable=not progress):
+        for group in opt.param_groups:
+            group["lr"] = learning_rate(cfg, epoch, time.perf_counter() - t0)
         rng = np.random.default_rng([cfg.seed, epoch])
         order = rng.permutation(train_idx) if weights is None else rng.choice(train_idx, len(train_idx), p=weights)
         sums, n, w_ratio = {}, 0, 1.0
@@ -253,7 +259,7 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
         seconds = time.perf_counter() - t0
         last = epoch == cfg.epochs or (cfg.minutes and seconds > 60 * cfg.minutes)
         row = dict(epoch=epoch, **{k: round(v / n, 6) for k, v in sums.items()}, w_ratio_max=round(w_ratio, 4),
-                   seconds=round(seconds, 2))
+                   lr=float(f"{opt.param_groups[0]['lr']:.4g}"), seconds=round(seconds, 2))
         if len(val_idx) and (epoch % cfg.eval_every == 0 or last):
             val = evaluate(model, ds, val_idx, cfg.phase, cfg.kl_weight, mesher)
             row.update({f"val_{k}": round(v, 6) for k, v in val.items()})
@@ -266,6 +272,17 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
         rows[-1]["kept_epoch"] = best.epoch
     model.eval()
     return model, rows
+
+
+def learning_rate(cfg: CVAETrainConfig, epoch: int, seconds: float) -> float:
+    """The learning rate of ``epoch`` (1-based): a cosine from ``lr`` at the first epoch to
+    ``lr * lr_end`` at the last, the run's progress being whichever of its epochs and its
+    wall-clock budget (``minutes``) is further along."""
+    progress = (epoch - 1) / max(cfg.epochs - 1, 1)
+    if cfg.minutes:
+        progress = max(progress, seconds / (60 * cfg.minutes))
+    cosine = 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
+    return cfg.lr * (cfg.lr_end + (1 - cfg.lr_end) * cosine)
 
 
 class _Best:
