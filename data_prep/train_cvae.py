@@ -8,6 +8,8 @@ reconstruction table (multi-frame 4D motion paper §3.3, §4.2-4.4).
     python -m data_prep train-cvae --table                       # results/cvae4d_reconstruction.csv
     python -m data_prep train-cvae --alpha-sweep                 # GradNorm's alpha on the validation
                                                                  # cycles: results/cvae4d_alpha_sweep.csv
+    python -m data_prep train-cvae --phase 1 --lr-end 0.05       # learning rate decayed on a cosine to a
+                                                                 # twentieth (default: constant)
 
 Runs go to ``cache/cvae4d/<name>/`` (``model.safetensors``, ``losses.csv``); ``--export`` also
 writes ``models/zoo/<name>.safetensors`` (float16 weights, 13 MB) and ``<name>_losses.csv``.
