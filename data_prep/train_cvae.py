@@ -268,7 +268,8 @@ def run_alpha_sweep(a: argparse.Namespace, ds) -> int:
                          seconds=float(load_cvae(paths[alpha])[1]["seconds"])))
     table = pd.DataFrame(rows)
     table["w_ratio_max_full_length"] = [full_length_ratio(alpha) for alpha in table["alpha"]]
-    balanced = table[(table["w_ratio_max"] < SWEEP_MAX_RATIO) & ~(table["w_ratio_max_full_length"] >= SWEEP_MAX_RATIO)]
+    worst = table[["w_ratio_max", "w_ratio_max_full_length"]].max(axis=1)  # NaN (no full run) is skipped
+    balanced = table[worst < SWEEP_MAX_RATIO]
     table["chosen"] = table["alpha"] == balanced.loc[balanced["val_mean_mm"].idxmin(), "alpha"]
     table["dataset"], table["command"] = ds.meta.get("hash"), command
     out = REPO_ROOT / SWEEP_TABLE

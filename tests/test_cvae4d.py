@@ -415,7 +415,7 @@ def _sweep_choice() -> float:
     full = sweep.alpha.map(full_length_ratio)
     np.testing.assert_allclose(full, sweep.w_ratio_max_full_length)
     chosen = float(sweep.loc[sweep.chosen, "alpha"].iloc[0])
-    balanced = sweep[(sweep.w_ratio_max < SWEEP_MAX_RATIO) & ~(full >= SWEEP_MAX_RATIO)]
+    balanced = sweep[pd.concat([sweep.w_ratio_max, full], axis=1).max(axis=1) < SWEEP_MAX_RATIO]
     assert chosen == balanced.loc[balanced.val_mean_mm.idxmin(), "alpha"]
     return chosen
 
