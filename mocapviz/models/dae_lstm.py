@@ -79,6 +79,6 @@ class DAELSTM(BaselineModel):
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
-            losses.append(float(loss))
+            losses.append(loss.item())
         opt.zero_grad(set_to_none=True)   # leave no gradient behind for the main optimiser
         return losses
