@@ -44,8 +44,8 @@ ABLATION_TABLE = Path("results") / "cvae4d_ablations.csv"
 # GradNorm's alpha is chosen on the validation cycles by short phase-1 runs (the ablations' length):
 # the lowest mean vertex error wins ...
 SWEEP_ALPHAS = (0.5, 1.0, 1.5)
-# ... among the alphas whose weights never went SWEEP_MAX_RATIO apart (the issue's bar; logged beside): with the
-# step on log-weights, 1.5 scored best (55.9 mm) with weights 31x apart
+# ... among the alphas whose weights never went SWEEP_MAX_RATIO apart (the issue's bar; logged beside): 1.5's
+# short runs went 31x and 19x apart (two builds of the same data)
 SWEEP_MAX_RATIO = 10.0
 # ... neither in the short run nor in the full-length phase-1 runs trained at that alpha: the ratio keeps
 # growing after 80 epochs (alpha 1.0: 9.2x at 80, past 10x from epoch 110, 25.7x and 25.1x by 700 in
