@@ -43,7 +43,7 @@ Redone with the step on log-weights: 57.6 / 56.9 / 55.9 mm, at most 6.6x / 9.2x 
 80 epochs; the same runs on a rebuild of the data (chi equal to 7e-6) gave 53.6 / 56.2 / 58.2 mm and
 5.2x / 9.0x / 19x, so the scores do not rank the alphas beyond an 80-epoch run's noise. Both phases trained in full at 1.0 (700 + 30 epochs, two seeds) showed that 80 epochs
 hide the drift: phase 1's weights passed 10x apart at epoch 110 and reached 25.7x / 25.1x, while
-0.5's full runs stayed within 7.3x / 6.6x (phase 1, two seeds) and 5.1x / 7.9x (phase 2). The
+0.5's full runs stayed within 7.3x / 6.8x (phase 1, two seeds) and 7.8x / 8.4x (phase 2). The
 sweep therefore takes the best alpha whose weights stay within 10x in the short run and in every
 full-length run at that alpha: 0.5.
 
