@@ -79,6 +79,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--alpha", type=float, help="GradNorm asymmetry (default: the config's)")
     p.add_argument("--lr-end", type=float, help="the learning rate at the end as a fraction of the start (cosine "
                    "decay; default 1: constant)")
+    p.add_argument("--balance-types", type=float, help="draws within a body times (its cycles of the type)^-this "
+                   "(default 0: by body only)")
     p.add_argument("--dataset", choices=("full", "quick"), default="full")
     p.add_argument("--data-dir")
     p.add_argument("--export", action="store_true", help="also write models/zoo/<name>.safetensors (+ losses)")
@@ -116,7 +118,8 @@ def _train_one(ds, name: str, cfg, init, export: bool, run: Path | None = None, 
 def _command(name: str, cfg) -> str:
     return (f"--phase {cfg.phase} --name {name} --epochs {cfg.epochs} --latent {cfg.latent} --kl {cfg.kl_weight} "
             f"--minutes {cfg.minutes:g} --seed {cfg.seed} --alpha {cfg.alpha:g}"
-            + (f" --lr-end {cfg.lr_end:g}" if cfg.lr_end != 1 else ""))
+            + (f" --lr-end {cfg.lr_end:g}" if cfg.lr_end != 1 else "")
+            + (f" --balance-types {cfg.balance_types:g}" if cfg.balance_types else ""))
 
 
 def run(a: argparse.Namespace) -> int:
@@ -131,7 +134,7 @@ def run(a: argparse.Namespace) -> int:
         return run_alpha_sweep(a, ds)
     cfg = with_overrides(CVAE_CONFIGS[a.config or f"phase{a.phase}"], phase=a.phase, epochs=a.epochs,
                          latent=a.latent, kl_weight=a.kl, vertex_subset=a.vertex_subset, minutes=a.minutes,
-                         seed=a.seed, alpha=a.alpha, lr_end=a.lr_end)
+                         seed=a.seed, alpha=a.alpha, lr_end=a.lr_end, balance_types=a.balance_types)
     init = None
     if a.phase == 2:
         from mocapviz.zoo import find_checkpoint

@@ -148,6 +148,11 @@ def test_validation_is_its_own_split_and_bodies_draw_alike():
     assert list(validation_indices(ds)) == [3]
     w = body_weights(ds, train_idx)
     np.testing.assert_allclose(w, [1 / 6, 1 / 6, 1 / 6, 1 / 2])  # body a: 3 cycles share one half
+    # by type too (power 1): body a's two walks share its half with its one run alike
+    typed = Body4DDataset(ds.chi, ds.beta, cycles.assign(motion_type=["walk", "walk", "run", "walk", "walk", "walk"]),
+                          pd.DataFrame(), pd.DataFrame())
+    np.testing.assert_allclose(body_weights(typed, train_idx, 1.0), [1 / 8, 1 / 8, 1 / 4, 1 / 2])
+    np.testing.assert_allclose(body_weights(typed, train_idx, 0.0), w)
     no_val = Body4DDataset(ds.chi, ds.beta, cycles.assign(split=cycles.split.replace("val", "train")),
                            pd.DataFrame(), pd.DataFrame())
     assert list(validation_indices(no_val)) == [4]  # older builds validate on held-out cycles

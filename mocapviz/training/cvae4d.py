@@ -72,6 +72,7 @@ class CVAETrainConfig:
     seed: int = 0
     threads: int = 1
     balance_bodies: bool = True             # draw each epoch's cycles with every body equally likely
+    balance_types: float = 0.0              # and each cycle's draws times (its body's cycles of its type)^-this
     minutes: float = 0.0                    # wall-clock budget (0: none); stops after the epoch that passes it
     keep_best: bool = True                  # return the weights of the best validation evaluation
 
@@ -125,13 +126,22 @@ def _mirrored(ds) -> np.ndarray:
     return ds.cycles["mirrored"].to_numpy().astype(bool) if "mirrored" in ds.cycles else np.zeros(len(ds), bool)
 
 
-def body_weights(ds, idx: np.ndarray) -> np.ndarray:
+def body_weights(ds, idx: np.ndarray, type_power: float = 0.0) -> np.ndarray:
     """Sampling probabilities of cycles ``idx`` that give every body (``body`` column, else
-    ``subject``) the same share of the draws."""
+    ``subject``) the same share of the draws; with ``type_power`` p > 0, within a body a cycle
+    of a type the body has n cycles of is drawn n^-p times as often (p = 1: every type of a body
+    alike). Why: by body alone, walk-back is 1 % of the draws and its translation the seeds'
+    largest difference (docs/method.md)."""
     col = "body" if "body" in ds.cycles else "subject"
     bodies = ds.cycles[col].to_numpy()[idx]
-    _, inverse, counts = np.unique(bodies, return_inverse=True, return_counts=True)
-    w = 1.0 / counts[inverse]
+    w = np.ones(len(idx))
+    if type_power:
+        kinds = ds.cycles["motion_type"].astype(str).to_numpy()[idx]
+        _, inverse, counts = np.unique(np.char.add(bodies.astype(str), "|" + kinds), return_inverse=True,
+                                       return_counts=True)
+        w = counts[inverse] ** -float(type_power)
+    _, inverse = np.unique(bodies, return_inverse=True)
+    w = w / np.bincount(inverse, weights=w)[inverse]  # every body's draws sum to the same
     return w / w.sum()
 
 
@@ -231,7 +241,7 @@ def train(ds, cfg: CVAETrainConfig, init=None, body=None, progress: bool = True)
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
     gradnorm = GradNorm(TASKS[cfg.phase], alpha=cfg.alpha, lr=cfg.gradnorm_lr, keep_history=False,
                         additive=cfg.gradnorm_step == "additive")
-    weights = body_weights(ds, train_idx) if cfg.balance_bodies else None
+    weights = body_weights(ds, train_idx, cfg.balance_types) if cfg.balance_bodies else None
     best = _Best()
     rows, t0 = [], time.perf_counter()
     for epoch in tqdm(range(1, cfg.epochs + 1), desc=f"cvae4d phase {cfg.phase}", disable=not progress):
