@@ -1,7 +1,8 @@
 """What the ``generate`` command makes of a user's own body: pace, height, posture and activity.
 
     .venv/bin/python benchmarks/bench_generate_files.py [--model M] [--seconds 60] [--modes mean,sampled]
-        [--temperature 0.5] [--pace seed|network] [--body auto|own|training] [--no-ground] [--diagnose]
+        [--temperature 0.5] [--pace seed|network] [--z-source seed|type] [--body auto|own|training]
+        [--no-ground] [--diagnose]
         [--keep DIR] [--only NAME,...] [FILE.bvh:TYPE ...]
 
 Seeds far from the training bodies, none of them a training clip, built at run time in a
@@ -61,7 +62,7 @@ from mocapviz import metrics
 from mocapviz.io.bvh import read_bvh, write_bvh
 from mocapviz.motion import Motion
 from mocapviz.tasks.generate_bvh import BODIES, generate_from_seed, load_seed
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE, Z_SOURCE, Z_SOURCES
 from mocapviz.tasks.rig import leg_length, retarget_to
 from mocapviz.training.checkpoint import load_checkpoint
 from mocapviz.zoo import find_checkpoint
@@ -291,6 +292,7 @@ def main(argv=None) -> dict:
     p.add_argument("--body", choices=BODIES, help="generate_from_seed(body=...): the body the network generates on "
                    "(default: the command's, auto)")
     p.add_argument("--no-ground", action="store_true", help="generate_from_seed(ground=False)")
+    p.add_argument("--z-source", choices=Z_SOURCES, default=Z_SOURCE, help="generate_from_seed(z_source=...)")
     p.add_argument("--diagnose", action="store_true", help="first print why a Mixamo body shuffled bent over")
     p.add_argument("--keep", help="write the built seeds here (default: a temporary folder)")
     p.add_argument("--only", help="comma-separated seed names to run")
@@ -298,7 +300,7 @@ def main(argv=None) -> dict:
     torch.set_num_threads(1)
     model, norm, meta = load_checkpoint(find_checkpoint(a.model))
     ds = build_dataset(DatasetConfig(), progress=False)
-    kw = {}
+    kw = dict(z_source=a.z_source)
     if a.body:
         kw["body"] = a.body
     if a.no_ground:
@@ -338,7 +340,7 @@ def main(argv=None) -> dict:
     print("bars met (of %d seeds): " % len(per_seed)
           + "; ".join(f"{k} " + ", ".join(f"{m} {v}" for m, v in d.items()) for k, d in bars_met.items()))
     res = dict(model=a.model, seconds=a.seconds, window=[a.seconds / 2, a.seconds], temperature=a.temperature,
-               pace=a.pace, body=a.body or "auto", ground=not a.no_ground, bars=BARS,
+               pace=a.pace, z_source=a.z_source, body=a.body or "auto", ground=not a.no_ground, bars=BARS,
                lean_bars=spreads, passed=passed, bars_met=bars_met, n_seeds=len(per_seed), seeds=per_seed)
     print(json.dumps(res))
     return res

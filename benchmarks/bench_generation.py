@@ -29,7 +29,7 @@ from data_prep import zoo
 from data_prep.ccnet_dataset import DatasetConfig, build_dataset
 from mocapviz.features.phase import paced_phase
 from mocapviz.tasks.generate import Generator
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE, Z_SOURCE, Z_SOURCES
 from mocapviz.tasks.generation_quality import (
     QUALITY_KEYS,
     bench_seeds,
@@ -94,6 +94,8 @@ def main(argv=None) -> dict:
                    help="sampling draws' correlation from frame to frame (Generator; 0: the paper's)")
     p.add_argument("--temperature", type=float, default=SAMPLING_TEMPERATURE,
                    help="sampling spread (Generator; 1: the model's own; default: %(default)s)")
+    p.add_argument("--z-source", choices=Z_SOURCES, default=Z_SOURCE,
+                   help="a latent model's z after the seed (Generator; default: %(default)s, the generate command's)")
     p.add_argument("--pace", choices=PACES, default=PACE,
                    help="the free-running plan's speed (Generator; default: %(default)s)")
     a = p.parse_args(argv)
@@ -136,7 +138,8 @@ def main(argv=None) -> dict:
     for mode in ("mean", "sample"):
         t = time.perf_counter()
         q = generation_quality(model, norm, ds, a.freeze_seconds, sample=mode == "sample",
-                               noise_correlation=a.noise_correlation, temperature=a.temperature, pace=a.pace)
+                               noise_correlation=a.noise_correlation, temperature=a.temperature, pace=a.pace,
+                               z_source=a.z_source)
         quality[mode] = dict(q["summary"], moves_like_real=sum(map(moves_like_real, q["per_clip"].values())),
                              seeds=len(q["per_clip"]))
         print(f"{mode} output, {len(q['per_clip'])} x {a.freeze_seconds:g} s, second half ({time.perf_counter() - t:.1f} s), "
@@ -147,7 +150,7 @@ def main(argv=None) -> dict:
                fps_naive_single=round(naive1, 1), fps_naive_batch64=round(naive64, 1),
                fps_batch64_by_backend={k: round(v, 1) for k, v in fps64_by.items()},
                max_abs_diff=max_diff, pose_quality=quality, noise_correlation=a.noise_correlation, threads=a.threads,
-               temperature=a.temperature, pace=a.pace,
+               temperature=a.temperature, pace=a.pace, z_source=a.z_source,
                repeats=a.repeats,
                model=a.model)
     print(json.dumps(res))

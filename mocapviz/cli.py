@@ -17,7 +17,7 @@ from pathlib import Path
 from mocapviz.errors import MocapFormatError
 
 from mocapviz.skeleton import SkeletonMapError
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE, Z_SOURCE, Z_SOURCES
 
 USER_ERRORS = (FileNotFoundError, MocapFormatError, SkeletonMapError)  # and GenerateError (imported with torch)
 
@@ -54,6 +54,9 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--pace", choices=PACES, default=PACE,
                    help="without --path: hold the seed's own pace (its last second's; seed), or follow the "
                         "speed it plans frame by frame (network; runs tend to slow down; default: %(default)s)")
+    p.add_argument("--z-source", choices=Z_SOURCES, default=Z_SOURCE,
+                   help="a latent model's z after the seed: read from the seed's own frames, so the body keeps "
+                        "how it holds itself (seed), or the motion type's usual z (type; default: %(default)s)")
     p.add_argument("--noise-correlation", type=float, default=0.0, metavar="RHO",
                    help="with --sample, the draws' correlation from one frame to the next (0: independent, the "
                         "paper's; every frame stays a draw of its predicted PDF; default: %(default)s)")
@@ -95,7 +98,8 @@ def generate(args) -> None:
                                     switch_every=args.switch_every, path_xz=path, sample=args.sample, ik=args.ik,
                                     seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
                                     skeleton_z=args.skeleton_z, temperature=args.temperature,
-                                    noise_correlation=args.noise_correlation, pace=args.pace, progress=True)
+                                    noise_correlation=args.noise_correlation, pace=args.pace,
+                                    z_source=args.z_source, progress=True)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_bvh(result.motion, out)

@@ -46,7 +46,7 @@ from mocapviz.features.motion_types import one_hot
 from mocapviz.features.phase import LEFT_FOOT, RIGHT_FOOT, local_phase, phase_signal
 from mocapviz.ik import foot_joints
 from mocapviz.tasks.generate import Generator
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE, Z_SOURCE
 from mocapviz.tasks.generation_quality import (QUALITY_KEYS, SEED_FRAMES, TypeBanks, generation_quality,
                                                locomotion_seeds, moves_like_real, pose_distance, real_pose_distance,
                                                real_reference)
@@ -92,7 +92,8 @@ PAPER_MODEL = "ccnet_paper"
 #   type's mean and spread of $z$ and its usual phase pace, for a seed that shows no cycle.
 #
 # In generation, the `generate` command holds the speed of the plan the seed ended with
-# (`pace`) and samples at a lowered temperature; both defaults are printed below.
+# (`pace`), takes $z$ from the seed's own frames (the posterior's mean over them, while the motion
+# type is the seed's: `z_source`) and samples at a lowered temperature; the defaults are printed below.
 
 # %%
 gen_model, gen_norm, gen_meta = zoo.load(GENERATION_MODEL)
@@ -103,7 +104,7 @@ print(pd.DataFrame({name: [getattr(m.cfg, k) for k in keys] for name, m in
                     ((GENERATION_MODEL, gen_model), (PAPER_MODEL, paper_model))}, index=list(keys)).to_string())
 print(f"{GENERATION_MODEL}: trained with body_scale {MODELS[GENERATION_MODEL].body_scale} (config "
       f"{RECIPES[GENERATION_MODEL][0]!r}), type prior {'fitted' if getattr(gen_model, 'type_prior', None) is not None else 'missing'}; "
-      f"generate defaults: pace {PACE!r}, sampling temperature {SAMPLING_TEMPERATURE}")
+      f"generate defaults: pace {PACE!r}, z from {Z_SOURCE!r}, sampling temperature {SAMPLING_TEMPERATURE}")
 
 # %% [markdown]
 # ## 2 · Generation for three bodies
@@ -136,9 +137,9 @@ for label, clip in subjects.items():
     r, a = ds.clips.iloc[row], ds.clip_arrays(row)
     n = SECONDS * round(ds.config.fps)
     t = time.perf_counter()
-    out = Generator(gen_model, gen_norm, pace=PACE).run(a["x"][None, :SEED_FRAMES], a["skel"][None],
-                                                        one_hot([a["type_index"]], gen_model.cfg.n_types), n,
-                                                        seed_traj=a["traj"][None, :SEED_FRAMES])
+    gen = Generator(gen_model, gen_norm, pace=PACE, z_source=Z_SOURCE)
+    out = gen.run(a["x"][None, :SEED_FRAMES], a["skel"][None], one_hot([a["type_index"]], gen_model.cfg.n_types), n,
+                  seed_traj=a["traj"][None, :SEED_FRAMES])
     dt = time.perf_counter() - t
     start, tag = (r.root_x, r.root_y, r.root_z), label.split()[0]
     raw = out.motion(0, ds.skeleton(row), start, r.heading, ik=False, name=f"ccnet_generated_{tag}")
@@ -230,7 +231,7 @@ show_figure(fig)
 # %%
 secs = SECONDS
 quality = {mode: generation_quality(gen_model, gen_norm, ds, secs, sample=mode == "sample", banks=banks, pace=PACE,
-                                    temperature=SAMPLING_TEMPERATURE)
+                                    temperature=SAMPLING_TEMPERATURE, z_source=Z_SOURCE)
            for mode in ("mean", "sample")}
 for mode, q in quality.items():
     print(f"{GENERATION_MODEL}, {mode} output, {len(q['per_clip'])} x {secs} s, seconds {secs // 2}-{secs} "

@@ -39,7 +39,7 @@ from mocapviz.motion import Motion
 from mocapviz.skeleton import Skeleton
 from mocapviz.tasks.controls import ClipControls, ControlSource, FreeRunning, PathControls
 from mocapviz.tasks.controls import at_speed, path_controls, plan_speed  # noqa: F401 - re-exported: the generation API
-from mocapviz.tasks.generation_defaults import PACES
+from mocapviz.tasks.generation_defaults import PACES, Z_SOURCES
 
 
 @dataclass
@@ -66,7 +66,8 @@ class Generator:
 
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
                  seed: int = 0, backend: str = "auto", temperature: float = 1.0, noise_correlation: float = 0.0,
-                 phase_source: str = "seed_pace", pace: str = "network", type_prior: bool = True):
+                 phase_source: str = "seed_pace", pace: str = "network", type_prior: bool = True,
+                 z_source: str = "type"):
         if temperature < 0:
             raise ValueError(f"temperature must be >= 0, got {temperature}")
         if not 0.0 <= noise_correlation < 1.0:
@@ -110,6 +111,17 @@ class Generator:
         # and ``type_prior``; else from its training prior. Why: N(0, I)'s mean z = 0 decodes an
         # average of all types (measured: the waving stepped its feet in place)
         self.type_prior = getattr(model, "type_prior", None) if type_prior and self.latent else None
+        # where a latent model's z comes from once the seed ends (Z_SOURCES): "type", the prior above;
+        # "seed", the posterior's mean over the seed's own frames (:meth:`_use_seed_z`), held while the
+        # motion type stays the seed's. Why "seed": z carries how the body holds itself, and the
+        # type's mean z stood every HDM05 sneak up within a second (docs/experiments.md)
+        if z_source not in Z_SOURCES:
+            raise ValueError(f"z_source must be one of {Z_SOURCES}, got {z_source!r}")
+        self.z_source = z_source
+        self._z_seed = None    # (B, latent) the seed's z, once the seed has been read
+        self._z_seed_on = None  # (B,) whose z it still is (their motion type is the seed's)
+        self._seed_posteriors = []
+        self._skip = None      # the last trunk output (a latent model's; the seed's posterior reads it)
         self._type_index = None
         self._skel_n = None  # the characters' normalised c^s (reset)
         if self.backend == "numpy":
@@ -142,7 +154,7 @@ class Generator:
         """The raw output (B, n_out) for frame t+1 from frame t and c^d_{t+1} (numpy arrays)."""
         if not self.latent:
             return self._plain_step(x, c)
-        skip = self._trunk(x, c)
+        skip = self._skip = self._trunk(x, c)
         k = self.cfg.latent_hold
         if t % k == 0:  # a new knot of z every latent_hold frames (CCNetConfig.latent_hold)
             # blended (latent_lerp): frames t..t+k-1 lie between this knot and the next, so the
@@ -159,16 +171,35 @@ class Generator:
     def _latent(self, skip) -> np.ndarray:
         """z of a latent model for the next knot, from its type prior (``self.type_prior``) or else
         N(0, I) (``CCNet.prior_of``): the prior's mean, or a draw from it with the spread scaled by
-        ``temperature`` when sampling. The frame is then the decoder's mean: the variation comes
-        from z, not from per-frame Gaussian noise on the frame."""
+        ``temperature`` when sampling; with ``z_source="seed"`` the seed's own z stands in for the
+        mean while the motion type is the seed's (:meth:`_use_seed_z`). The frame is then the
+        decoder's mean: the variation comes from z, not from per-frame Gaussian noise on the frame."""
+        b = len(skip)
         if self.type_prior is not None:
-            if not self.sample:
-                return self.type_prior.mean[self._type_index]
-            return self.type_prior.draw(self._type_index, self.temperature * self._draw((len(skip), self.latent)))
-        mean = np.zeros((len(skip), self.latent), dtype=np.float32)  # N(0, I) without a torch call per frame
-        if not self.sample:
-            return mean
-        return mean + self.temperature * self._draw(mean.shape)
+            mean = self.type_prior.mean[self._type_index]
+            z = self.type_prior.draw(self._type_index, self.temperature * self._draw((b, self.latent))) \
+                if self.sample else mean
+        else:
+            mean = np.zeros((b, self.latent), dtype=np.float32)  # N(0, I) without a torch call per frame
+            z = mean + self.temperature * self._draw(mean.shape) if self.sample else mean
+        if self._z_seed is not None:  # the same spread around the seed's z
+            z = z + np.where(self._z_seed_on[:, None], self._z_seed - mean, 0.0).astype(np.float32)
+        return z
+
+    def _posterior_mean(self, x_t: np.ndarray, x_next: np.ndarray) -> np.ndarray:
+        """(B, latent) the posterior's mean of z at the last step, given the true next frame."""
+        t = lambda a: torch.as_tensor(np.asarray(a, np.float32))  # noqa: E731
+        return self.model.posterior_of(t(self._skip), t(x_t), t(x_next))[0].numpy()
+
+    def _use_seed_z(self) -> None:
+        """z from here on: the mean of the posterior means over the seed's frames (those with the
+        whole receptive field behind them, or all but the first of a shorter seed); the knots
+        already drawn are replaced. A one-frame seed has none and keeps the type's prior."""
+        if not self._seed_posteriors:
+            return
+        self._z_seed = np.mean(self._seed_posteriors, axis=0).astype(np.float32)
+        self._z_seed_on = np.ones(len(self._z_seed), bool)
+        self._z_past = [self._z_seed.copy() for _ in self._z_past]
 
     def _draw(self, shape) -> np.ndarray:
         """This frame's N(0, 1) draws: independent of the last frame's, or AR(1) with lag-one
@@ -187,6 +218,7 @@ class Generator:
         self.raw_outputs = []
         self._noise = None
         self._z_past = []  # the last two knots of z, newest first (blended between)
+        self._z_seed, self._seed_posteriors = None, []
         self._skel_n = skel_n
         self.set_types(types)
 
@@ -196,7 +228,10 @@ class Generator:
             self.stepper.set_static(torch.from_numpy(self._skel_n), torch.from_numpy(types))
         else:
             self.stepper.set_static(self._skel_n, types)
-        self._type_index = types.argmax(1)  # the type prior's (one-hot types)
+        index = types.argmax(1)  # the type prior's (one-hot types)
+        if self._z_seed is not None:  # the seed's z is of the seed's type: a character given another takes its prior
+            self._z_seed_on &= index == self._type_index
+        self._type_index = index
 
     @property
     def type_index(self) -> np.ndarray | None:
@@ -270,7 +305,11 @@ class Generator:
                 c_next = np.concatenate([c_next[:, :self.cfg.n_traj - 2], phase[:, t + 1]], axis=1)
             c_next = np.ascontiguousarray(c_next)
             controls.fed(t, c_next, known)
+            if t + 1 == s and self.z_source == "seed" and self.latent:
+                self._use_seed_z()
             frame, pred_traj = self.advance(xs[:, t], c_next, t, write=t + 1 >= s)
+            if t + 1 < s and self.z_source == "seed" and self.latent and t >= min(self.cfg.receptive_field, s - 2):
+                self._seed_posteriors.append(self._posterior_mean(xs[:, t], xs[:, t + 1]))
             if frame is not None:
                 xs[:, t + 1] = frame
         return Generated(norm.denorm_x(xs), s, xs, phase)

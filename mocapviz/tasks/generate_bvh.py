@@ -34,7 +34,7 @@ from mocapviz.skeleton import Skeleton, SkeletonMapError
 from mocapviz.skeleton_map import map_skeleton
 from mocapviz.tasks.controls import PathControls
 from mocapviz.tasks.generate import Generator
-from mocapviz.tasks.generation_defaults import PACE, SAMPLING_TEMPERATURE
+from mocapviz.tasks.generation_defaults import PACE, SAMPLING_TEMPERATURE, Z_SOURCE
 from mocapviz.tasks.rig import ModelRig, floor_height, grounded, known_body, leg_length, retarget_to
 
 BODIES = ("auto", "own", "training")  # what generate_from_seed(body=...) accepts
@@ -206,7 +206,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
                        switch_every: float | None = None, path_xz=None, sample: bool = False, ik: bool = True,
                        seed_seconds: float = 2.0, joint_map=None, rng_seed: int = 0, skeleton_z: float = 3.0,
                        temperature: float = SAMPLING_TEMPERATURE, noise_correlation: float = 0.0,
-                       pace: str = PACE, body: str = "auto", ground: bool = True,
+                       pace: str = PACE, body: str = "auto", ground: bool = True, z_source: str = Z_SOURCE,
                        progress: bool = False) -> SeedGeneration:
     """Continue ``seed`` (a Motion on any skeleton, e.g. from :func:`load_seed`) for ``seconds``.
 
@@ -224,7 +224,9 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     ``body``: the skeleton the network generates on (:func:`generation_body`): "auto" (the
     training body, scaled to the seed's legs, unless the seed is on it already; the result is
     retargeted back), "own", or "training" (every seed on the training body, for comparisons);
-    ``ground``: keep the generated body's feet on the seed's floor (:func:`grounded`).
+    ``ground``: keep the generated body's feet on the seed's floor (:func:`grounded`); ``z_source``:
+    a latent model's z after the seed, "seed" (read from the seed's own frames) or "type" (the
+    motion type's prior; :class:`mocapviz.tasks.generate.Generator`).
 
     Any seed of one frame or more: one shorter than the model's receptive field + 1 frames
     warns (:class:`ShortSeedWarning`) and is fed as it is, the network seeing zeros before it
@@ -296,7 +298,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
         controls = PathControls(np.concatenate([seen_root[:, [0, 2]], ahead])[None], feats.start_root[None],
                                 np.array([feats.start_heading]))
     gen = Generator(model, normaliser, sample=sample, seed=rng_seed, temperature=temperature,
-                    noise_correlation=noise_correlation, pace=pace).run(
+                    noise_correlation=noise_correlation, pace=pace, z_source=z_source).run(
         feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, controls,
         seed_traj=seed_controls(feats.traj)[None], progress=progress)
     gen_m = gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,

@@ -18,3 +18,10 @@ PACES = ("seed", "network")  # what Generator(pace=...) and --pace accept
 # 1 and 0.7 (jitter 4.7x and 3.2x the real clips' with ccnet_phase_lerp, 4.9x and 3.5x with
 # ccnet_phase_lerp_scale: over the moving bar's 3) and not at 0.5 (2.3x, 2.7x)
 SAMPLING_TEMPERATURE = 0.5
+
+# where a latent model's z comes from after the seed (Generator(z_source=...), --z-source): "seed", the
+# posterior's mean over the seed's own frames, kept the held-out HDM05 sneak leaning forward (+17.1
+# degrees over seconds 30-60 of bench_generate_files, the seed +38.5) where the sneak type's prior
+# mean z stood it up (+5.6); "type", that prior (docs/experiments.md, "Why a generated sneak stands up")
+Z_SOURCE = "seed"
+Z_SOURCES = ("seed", "type")

@@ -185,20 +185,20 @@ def motion_quality(motion, motion_type: str, refs: References, seed_root_height:
 def generation_quality(model, norm, ds, seconds: float, sample: bool, rows=None, n_seed: int = SEED_FRAMES,
                        seed: int = 0, temperature: float = 1.0, banks: TypeBanks | None = None,
                        noise_correlation: float = 0.0, phase_source: str = "seed_pace", pace: str = "network",
-                       type_prior: bool = True) -> dict:
+                       type_prior: bool = True, z_source: str = "type") -> dict:
     """Generate ``seconds`` after an ``n_seed``-frame seed from each clip row of ``rows`` (default
     :func:`locomotion_seeds`); the :data:`QUALITY_KEYS` over the second half of the generated frames,
     per clip (``per_clip``: clip name -> dict, plus its ``type``) and as [min, median, max] over
     the clips (``summary``). Also returns the generated motions (``motions``, seed included,
     no IK). ``banks``: the training poses of each type (:class:`TypeBanks`, built when not given:
     pass one when calling more than once). ``noise_correlation``, ``phase_source``, ``pace``,
-    ``type_prior``: as :class:`Generator`'s."""
+    ``type_prior``, ``z_source``: as :class:`Generator`'s."""
     rows = locomotion_seeds(ds) if rows is None else list(rows)
     x, traj, skel, types = seed_batch(ds, rows, n_seed, model.cfg.n_types)
     n = round(seconds * ds.config.fps)
     gen = Generator(model, norm, batch=len(rows), sample=sample, seed=seed, temperature=temperature,
                     noise_correlation=noise_correlation, phase_source=phase_source, pace=pace,
-                    type_prior=type_prior).run(
+                    type_prior=type_prior, z_source=z_source).run(
         x, skel, types, n, seed_traj=traj)
     refs = References(ds, banks)
     per_clip, motions = {}, {}
