@@ -120,7 +120,7 @@ class Generator:
         self.z_source = z_source
         self._z_seed = None    # (B, latent) the seed's z, once the seed has been read
         self._z_seed_on = None  # (B,) whose z it still is (their motion type is the seed's)
-        self._seed_posteriors = []
+        self._seed_skips = []  # the trunk's output at each seed step z is read from
         self._skip = None      # the last trunk output (a latent model's; the seed's posterior reads it)
         self._type_index = None
         self._skel_n = None  # the characters' normalised c^s (reset)
@@ -186,18 +186,18 @@ class Generator:
             z = z + np.where(self._z_seed_on[:, None], self._z_seed - mean, 0.0).astype(np.float32)
         return z
 
-    def _posterior_mean(self, x_t: np.ndarray, x_next: np.ndarray) -> np.ndarray:
-        """(B, latent) the posterior's mean of z at the last step, given the true next frame."""
-        t = lambda a: torch.as_tensor(np.asarray(a, np.float32))  # noqa: E731
-        return self.model.posterior_of(t(self._skip), t(x_t), t(x_next))[0].numpy()
-
-    def _use_seed_z(self) -> None:
-        """z from here on: the mean of the posterior means over the seed's frames (those with the
-        whole receptive field behind them, or all but the first of a shorter seed); the knots
-        already drawn are replaced. A one-frame seed has none and keeps the type's prior."""
-        if not self._seed_posteriors:
+    def _use_seed_z(self, xs: np.ndarray, steps: range) -> None:
+        """z from here on: the mean of the posterior's means at the seed ``steps`` (those with the
+        whole receptive field behind them, or all but the first of a shorter seed), each given the
+        true next frame of ``xs`` (B, T, n_x, normalised); the knots already drawn are replaced. A
+        one-frame seed has none and keeps the type's prior."""
+        if not steps:
             return
-        self._z_seed = np.mean(self._seed_posteriors, axis=0).astype(np.float32)
+        t = lambda a: torch.as_tensor(np.asarray(a, np.float32))  # noqa: E731
+        skips = t(np.stack(self._seed_skips, axis=1))  # (B, S', skip channels)
+        a, b = steps.start, steps.stop
+        means = self.model.posterior_of(skips, t(xs[:, a:b]), t(xs[:, a + 1:b + 1]))[0]  # x_t and the true x_{t+1}
+        self._z_seed = means.mean(1).numpy().astype(np.float32)
         self._z_seed_on = np.ones(len(self._z_seed), bool)
         self._z_past = [self._z_seed.copy() for _ in self._z_past]
 
@@ -218,7 +218,7 @@ class Generator:
         self.raw_outputs = []
         self._noise = None
         self._z_past = []  # the last two knots of z, newest first (blended between)
-        self._z_seed, self._seed_posteriors = None, []
+        self._z_seed, self._seed_skips = None, []
         self._skel_n = skel_n
         self.set_types(types)
 
@@ -289,6 +289,8 @@ class Generator:
             usual = getattr(self.type_prior, "phase_hz", None)
             phase = paced_phase(seed_x, self.layout, total,
                                 fallback_hz=None if usual is None else usual[self._type_index])
+        read_seed = self.z_source == "seed" and bool(self.latent)  # z from the seed (_use_seed_z)
+        seed_steps = range(max(0, min(self.cfg.receptive_field, s - 2)), s - 1) if read_seed else range(0)
         for t in tqdm(range(total - 1), desc="generate", disable=not progress):
             if per_frame_types and not np.array_equal(types[:, t + 1], cur_type):
                 controls.types_changed((types[:, t + 1] != cur_type).any(axis=1))
@@ -305,11 +307,11 @@ class Generator:
                 c_next = np.concatenate([c_next[:, :self.cfg.n_traj - 2], phase[:, t + 1]], axis=1)
             c_next = np.ascontiguousarray(c_next)
             controls.fed(t, c_next, known)
-            if t + 1 == s and self.z_source == "seed" and self.latent:
-                self._use_seed_z()
+            if t + 1 == s and read_seed:
+                self._use_seed_z(xs, seed_steps)
             frame, pred_traj = self.advance(xs[:, t], c_next, t, write=t + 1 >= s)
-            if t + 1 < s and self.z_source == "seed" and self.latent and t >= min(self.cfg.receptive_field, s - 2):
-                self._seed_posteriors.append(self._posterior_mean(xs[:, t], xs[:, t + 1]))
+            if t in seed_steps:  # a copy: the stepper may reuse its buffers
+                self._seed_skips.append(np.array(self._skip, dtype=np.float32, copy=True))
             if frame is not None:
                 xs[:, t + 1] = frame
         return Generated(norm.denorm_x(xs), s, xs, phase)
