@@ -145,3 +145,15 @@ def test_summary_keeps_the_budgets_apart():
     out = summary(rows).set_index("budget")
     assert out.loc["minibatch", "mean_mm"] == 15.0 and out.loc["full", "mean_mm"] == 5.0
     assert out.loc["full", "n"] == 2 and out.loc["full", "seconds"] == 6.0
+
+
+def test_shard_option_is_checked():
+    import argparse
+
+    from data_prep.cvae4d_completion import _shard
+
+    p = argparse.ArgumentParser()
+    assert _shard(p, "1/2") == (1, 2)
+    for bad in ("2/2", "-1/2", "1", "a/b"):
+        with pytest.raises(SystemExit):
+            _shard(p, bad)
