@@ -115,11 +115,14 @@ save_figure(fig, fig_dir / "cvae4d_fig_representation.png")
 # %% [markdown]
 # ## The committed models
 #
-# Both phases were trained on the **full** dataset (every training cycle) by
-# `python -m data_prep train-cvae --phase 1 --export` and then `--phase 2 --export`, with the
-# epochs of `CVAE_CONFIGS["phase1"]` / `["phase2"]` (scaled to this machine's CPU; the paper runs
-# 5000 + 200 epochs on a GPU). They load by name through the zoo; the notebook trains nothing.
-# Their losses per epoch are the `_losses.csv` files beside them.
+# Both phases were trained on the **full** dataset (every training cycle) by the commands printed
+# below from each checkpoint's metadata (`python -m data_prep train-cvae --phase 1 ...`, then
+# `--phase 2` from that run; epochs sized to one CPU thread, where the paper runs 5000 + 200 on a
+# GPU). Each epoch draws the training cycles with every body equally likely and, within a body,
+# a cycle of a type the body has n cycles of n^-p times as often (p printed as `balance_types`:
+# without it the rare types' root translations decided how far two training seeds landed apart;
+# docs/method.md). They load by name through the zoo; the notebook trains nothing. Their losses
+# per epoch are the `_losses.csv` files beside them.
 
 # %%
 phase1, meta1 = load_cvae4d("cvae4d_phase1")
@@ -133,6 +136,7 @@ for name, zoo_name, meta in (("phase 1", "cvae4d_phase1", meta1), ("phase 2", "c
     ended = " (its time budget ended it)" if run < tc["epochs"] else ""
     print(f"{name}: {run} epochs run of the {tc['epochs']} configured{ended}, epoch {kept} kept; "
           f"batch {tc['batch_size']}, lr {tc['lr']}, KL weight {tc['kl_weight']}, "
+          f"balance_types {tc.get('balance_types', 0)}, "
           f"{float(meta['seconds']) / 60:.1f} min wall on {tc['threads']} thread(s) of a shared machine; "
           f"{meta['dataset']['n_train']} training cycles of dataset {meta['dataset']['hash']}; `{meta['command']}`")
 print("this notebook's dataset is the one they were trained on:",
@@ -213,7 +217,7 @@ display(Image(filename=str(fig_dir / "cvae4d_fig_reconstructions.png")))
 #
 # The paper trains on 13 121 AMASS cycles of hundreds of subjects (5000 + 200 epochs on a GPU);
 # we train on the training cycles of notebook 10's full dataset (the count is printed above), on
-# one CPU thread, for the epochs printed above, with layers narrow enough that each checkpoint
-# stays under 3 MiB (float16 weights). The gap between the solid (training) and dashed
+# one CPU thread, for the epochs printed above, at hidden widths (256, 256) and latent 64 (a
+# 13.7 MB float16 checkpoint; printed above). The gap between the solid (training) and dashed
 # (held-out) curves above is what these short runs generalise. Notebook 12 compares both phases
 # with the PCA baseline on every test set (`results/cvae4d_reconstruction.csv`).

@@ -151,7 +151,8 @@ for t in sets:
 # stopped.
 #
 # The ablation table below was made on the same dataset split as these models (body4d v3) with
-# their widths, in short phase-1 runs.
+# their widths, in short phase-1 runs whose draws are balanced by body only (the committed models
+# also balance the motion types within a body: notebook 11 prints `balance_types`).
 
 # %% [markdown]
 # ## Fig. 3 and Fig. 4: latent dimension and KL weight
