@@ -17,7 +17,8 @@ from pathlib import Path
 from mocapviz.errors import MocapFormatError
 
 from mocapviz.skeleton import SkeletonMapError
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE, Z_SOURCE, Z_SOURCES
+from mocapviz.tasks.generation_defaults import (GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE, Z_SEARCH, Z_SOURCE,
+                                                Z_SOURCES)
 
 USER_ERRORS = (FileNotFoundError, MocapFormatError, SkeletonMapError)  # and GenerateError (imported with torch)
 
@@ -57,6 +58,10 @@ def _generate_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--z-source", choices=Z_SOURCES, default=Z_SOURCE,
                    help="a latent model's z after the seed: read from the seed's own frames, so the body keeps "
                         "how it holds itself (seed), or the motion type's usual z (type; default: %(default)s)")
+    p.add_argument("--z-search", type=int, default=Z_SEARCH, metavar="K",
+                   help="with --z-source seed: try K codes around the seed's z, then K around the best, 8 s each, and "
+                        "keep the one that holds the seed's root height, lean, pace and activity best (0: the seed's z "
+                        "as read; default: %(default)s)")
     p.add_argument("--noise-correlation", type=float, default=0.0, metavar="RHO",
                    help="with --sample, the draws' correlation from one frame to the next (0: independent, the "
                         "paper's; every frame stays a draw of its predicted PDF; default: %(default)s)")
@@ -99,7 +104,7 @@ def generate(args) -> None:
                                     seed_seconds=args.seed_seconds, joint_map=joint_map, rng_seed=args.random_seed,
                                     skeleton_z=args.skeleton_z, temperature=args.temperature,
                                     noise_correlation=args.noise_correlation, pace=args.pace,
-                                    z_source=args.z_source, progress=True)
+                                    z_source=args.z_source, z_search=args.z_search, progress=True)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_bvh(result.motion, out)

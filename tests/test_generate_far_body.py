@@ -47,22 +47,28 @@ def _meta(checkpoint):
     return checkpoint[2]["dataset"]
 
 
-@pytest.fixture(scope="module")
-def mixamo_seed(data_dir, checkpoint):
-    """The source take on the model's joints, scaled to the Mixamo skeleton's legs and
-    retargeted onto it (:func:`mocapviz.bodies.retarget.retarget`), 30 fps like Mixamo's files."""
+def _on_fixture(data_dir, checkpoint, source: str, fixture: str, fps: float, asf: str | None = None) -> Motion:
+    """A real take (``source`` under the data folder) on the model's joints, scaled to the leg
+    length of a hand-written skeleton ``fixture`` and retargeted onto it
+    (:func:`mocapviz.bodies.retarget.retarget`), at ``fps`` like that exporter's files."""
     from mocapviz.bodies.retarget import retarget
 
-    source = load_seed(data_dir / SOURCE).resample(60.0)
+    source = load_seed(data_dir / source, None if asf is None else data_dir / asf).resample(60.0)
     rig = seed_rig(source, map_skeleton(source.skeleton).mapping, _meta(checkpoint), checkpoint[1])
     on_model = rig.to_model(source)
-    target = read_bvh(FIXTURES / "mixamo_tpose.bvh")
+    target = read_bvh(FIXTURES / fixture)
     cmu_named = target.skeleton.renamed(MIXAMO_TO_CMU)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the source's clavicles move; retarget holds them, and says so
         moved = retarget(on_model.scaled(leg_length(cmu_named) / leg_length(on_model.skeleton)), cmu_named)
-    return Motion(target.skeleton, moved.rotations, moved.root_positions, 60.0, name="mixamo_walk",
-                  meta={"format": "bvh", "length_unit": 0.01, "channels": target.meta["channels"]}).resample(30.0)
+    return Motion(target.skeleton, moved.rotations, moved.root_positions, 60.0, name=Path(source.name).stem,
+                  meta={"format": "bvh", "length_unit": 0.01, "channels": target.meta["channels"]}).resample(fps)
+
+
+@pytest.fixture(scope="module")
+def mixamo_seed(data_dir, checkpoint):
+    """A Bandai test-split walk on the Mixamo T-pose skeleton, 30 fps like Mixamo's files."""
+    return _on_fixture(data_dir, checkpoint, SOURCE, "mixamo_tpose.bvh", 30.0)
 
 
 def _numbers(result, start: float) -> dict:
@@ -94,6 +100,27 @@ def test_mixamo_body_keeps_height_pace_and_posture(generated):
     # leaning forward from its own rest as far as real walks lean from theirs (the rests' own
     # tilt: Bandai 0 degrees, the VICON skeletons -0.7 to -7.9, this Mixamo one -2.3)
     assert WALK_LEAN[0] <= generated["lean"] <= WALK_LEAN[1], generated
+
+
+def test_posture_search_keeps_a_deep_jog_crouch(data_dir, checkpoint):
+    """The held-out HDM05 subject's jog on the Mixamo A-pose skeleton crouches deeper than the
+    network's jogs: with the seed's z as read it stood 1.07x the seed's root height over seconds
+    30-60 (benchmarks/bench_generate_files.py, --z-search 0); the posture search keeps it within
+    5 % after the probe's 8 s, and leaning nearer the seed than without it."""
+    seed = _on_fixture(data_dir, checkpoint, "hdm05/tr/HDM_tr_jogLeftCircle4StepsRstart_014_120.amc",
+                       "mixamo_apose.bvh", 30.0, asf="hdm05/tr/HDM_tr.asf")
+    numbers = {}
+    for k in (0, 64):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            result = generate_from_seed(seed, *checkpoint, types=["jog"], seconds=20.0, z_search=k)
+        m = result.rig.to_model(result.motion)
+        numbers[k] = _numbers(result, start=10.0)
+        numbers[k]["seed_lean"] = metrics.forward_lean(m.positions()[:result.n_seed], m.skeleton).mean()
+    searched, plain = numbers[64], numbers[0]
+    assert 0.95 <= searched["height"] <= 1.05, numbers
+    assert abs(searched["lean"] - searched["seed_lean"]) < abs(plain["lean"] - plain["seed_lean"]), numbers
+    assert 0.5 <= searched["speed"] <= 2.0 and 0.5 <= searched["activity"] <= 2.0, numbers
 
 
 def test_own_body_of_a_vicon_file_and_a_straight_legged_one(data_dir):

@@ -67,7 +67,7 @@ class Generator:
     def __init__(self, model: CCNet, normaliser: Normaliser, batch: int = 1, sample: bool = False,
                  seed: int = 0, backend: str = "auto", temperature: float = 1.0, noise_correlation: float = 0.0,
                  phase_source: str = "seed_pace", pace: str = "network", type_prior: bool = True,
-                 z_source: str = "type"):
+                 z_source: str = "type", z_shift: np.ndarray | None = None):
         if temperature < 0:
             raise ValueError(f"temperature must be >= 0, got {temperature}")
         if not 0.0 <= noise_correlation < 1.0:
@@ -118,6 +118,8 @@ class Generator:
         if z_source not in Z_SOURCES:
             raise ValueError(f"z_source must be one of {Z_SOURCES}, got {z_source!r}")
         self.z_source = z_source
+        # (B, latent) or None: added to the seed's z once read (mocapviz.tasks.posture_search picks it)
+        self.z_shift = None if z_shift is None else np.asarray(z_shift, dtype=np.float32)
         self._z_seed = None    # (B, latent) the seed's z, once the seed has been read
         self._z_seed_on = None  # (B,) whose z it still is (their motion type is the seed's)
         self._seed_skips = []  # the trunk's output at each seed step z is read from
@@ -189,8 +191,8 @@ class Generator:
     def _use_seed_z(self, xs: np.ndarray, steps: range) -> None:
         """z from here on: the mean of the posterior's means at the seed ``steps`` (those with the
         whole receptive field behind them, or all but the first of a shorter seed), each given the
-        true next frame of ``xs`` (B, T, n_x, normalised); the knots already drawn are replaced. A
-        one-frame seed has none and keeps the type's prior."""
+        true next frame of ``xs`` (B, T, n_x, normalised), plus ``z_shift`` where given; the knots
+        already drawn are replaced. A one-frame seed has none and keeps the type's prior."""
         if not steps:
             return
         t = lambda a: torch.as_tensor(np.asarray(a, np.float32))  # noqa: E731
@@ -198,6 +200,8 @@ class Generator:
         a, b = steps.start, steps.stop
         means = self.model.posterior_of(skips, t(xs[:, a:b]), t(xs[:, a + 1:b + 1]))[0]  # x_t and the true x_{t+1}
         self._z_seed = means.mean(1).numpy().astype(np.float32)
+        if self.z_shift is not None:
+            self._z_seed = self._z_seed + self.z_shift
         self._z_seed_on = np.ones(len(self._z_seed), bool)
         self._z_past = [self._z_seed.copy() for _ in self._z_past]
 
@@ -311,7 +315,7 @@ class Generator:
                 self._use_seed_z(xs, seed_steps)
             frame, pred_traj = self.advance(xs[:, t], c_next, t, write=t + 1 >= s)
             if t in seed_steps:  # a copy: the stepper may reuse its buffers
-                self._seed_skips.append(np.array(self._skip, dtype=np.float32, copy=True))
+                self._seed_skips.append(np.array(np.asarray(self._skip), dtype=np.float32, copy=True))
             if frame is not None:
                 xs[:, t + 1] = frame
         return Generated(norm.denorm_x(xs), s, xs, phase)

@@ -34,7 +34,9 @@ from mocapviz.skeleton import Skeleton, SkeletonMapError
 from mocapviz.skeleton_map import map_skeleton
 from mocapviz.tasks.controls import PathControls
 from mocapviz.tasks.generate import Generator
-from mocapviz.tasks.generation_defaults import PACE, SAMPLING_TEMPERATURE, Z_SOURCE
+from mocapviz.tasks.generation_defaults import (PACE, SAMPLING_TEMPERATURE, Z_SEARCH, Z_SEARCH_SECONDS,
+                                                Z_SEARCH_SPREADS, Z_SOURCE)
+from mocapviz.tasks.posture_search import MIN_SEED_SECONDS, ZSearch, posture_of, search_seed_z
 from mocapviz.tasks.rig import ModelRig, floor_height, grounded, known_body, leg_length, retarget_to
 
 BODIES = ("auto", "own", "training")  # what generate_from_seed(body=...) accepts
@@ -110,6 +112,7 @@ class SeedGeneration:
     n_seed: int             # how many of its frames are the seed's
     model_motion: Motion    # the generated frames on the model's skeleton (what the rig maps back)
     rig: ModelRig
+    z_search: ZSearch | None = None  # the search for z after the seed, where one ran (posture_search)
 
 
 def type_schedule(types, known, n_seed: int, n_gen: int, switch_every: float | None, fps: float) -> np.ndarray:
@@ -207,7 +210,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
                        seed_seconds: float = 2.0, joint_map=None, rng_seed: int = 0, skeleton_z: float = 3.0,
                        temperature: float = SAMPLING_TEMPERATURE, noise_correlation: float = 0.0,
                        pace: str = PACE, body: str = "auto", ground: bool = True, z_source: str = Z_SOURCE,
-                       progress: bool = False) -> SeedGeneration:
+                       z_search: int = Z_SEARCH, progress: bool = False) -> SeedGeneration:
     """Continue ``seed`` (a Motion on any skeleton, e.g. from :func:`load_seed`) for ``seconds``.
 
     ``model``, ``normaliser``, ``meta``: a loaded checkpoint (its ``meta['dataset']`` gives the
@@ -226,7 +229,11 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     retargeted back), "own", or "training" (every seed on the training body, for comparisons);
     ``ground``: keep the generated body's feet on the seed's floor (:func:`grounded`); ``z_source``:
     a latent model's z after the seed, "seed" (read from the seed's own frames) or "type" (the
-    motion type's prior; :class:`mocapviz.tasks.generate.Generator`).
+    motion type's prior; :class:`mocapviz.tasks.generate.Generator`); ``z_search``: with z from the
+    seed, try this many codes a round around it (two rounds) and generate with the one whose 8 s
+    rollout keeps the seed's root height, lean, pace and activity best
+    (:mod:`mocapviz.tasks.posture_search`; 0 or 1: the seed's z as read; seeds under 0.5 s are not
+    searched).
 
     Any seed of one frame or more: one shorter than the model's receptive field + 1 frames
     warns (:class:`ShortSeedWarning`) and is fed as it is, the network seeing zeros before it
@@ -279,6 +286,7 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     rig = seed_rig(seed60, names, ds, normaliser)
     seed_m = rig.to_model(seed60)
     floor = floor_height(seed_m.positions())
+    seed_own = seed_m  # on the user's own body, where the posture search measures
     on_body = generation_body(rig, ds, body)
     if on_body is not None:  # the seed's motion on the body the network generates on
         seed_m = retarget_to(seed_m, on_body)
@@ -292,24 +300,38 @@ def generate_from_seed(seed: Motion, model, normaliser, meta: dict, types=("walk
     types_oh = type_schedule(list(types), known, len(feats.x), n_gen, switch_every, fps)
     theta = heading_angles(seen.positions(), seen.skeleton)
     end_root, end_heading = seen.root_positions[-1], float(theta[-1])
+    skel_seen = limit_skeleton(feats.skel, normaliser, skeleton_z)
+    searched = None
+    if z_source == "seed" and n_seed >= MIN_SEED_SECONDS * fps:
+        searched = search_seed_z(model, normaliser, feats.x, skel_seen, types_oh[0], seed_controls(feats.traj),
+                                 seen.skeleton, posture_of(seed_own), candidates=z_search, seconds=Z_SEARCH_SECONDS,
+                                 spreads=Z_SEARCH_SPREADS, pace=pace, rng_seed=rng_seed, ik=ik, progress=progress,
+                                 to_target_body=lambda m: _on_user_body(m, size, on_body, rig))
     controls = None  # the network's own plan, at the pace asked for
     if path_xz is not None:
         ahead = path_points(path_xz, n_gen) * size + end_root[[0, 2]]
         controls = PathControls(np.concatenate([seen_root[:, [0, 2]], ahead])[None], feats.start_root[None],
                                 np.array([feats.start_heading]))
     gen = Generator(model, normaliser, sample=sample, seed=rng_seed, temperature=temperature,
-                    noise_correlation=noise_correlation, pace=pace, z_source=z_source).run(
-        feats.x[None], limit_skeleton(feats.skel, normaliser, skeleton_z)[None], types_oh[None], n_gen, controls,
+                    noise_correlation=noise_correlation, pace=pace, z_source=z_source,
+                    z_shift=None if searched is None else searched.shift[None]).run(
+        feats.x[None], skel_seen[None], types_oh[None], n_gen, controls,
         seed_traj=seed_controls(feats.traj)[None], progress=progress)
-    gen_m = gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,
-                       include_seed=False).scaled(1 / size)
-    if on_body is not None:  # back onto the seed's own body
-        gen_m = retarget_to(gen_m, rig.skeleton)
-    gen_m = rig.expressible(gen_m)
+    gen_m = _on_user_body(gen.motion(0, seen.skeleton, start_root=end_root, start_heading=end_heading, ik=ik,
+                                     include_seed=False), size, on_body, rig)
     if ground:
         gen_m = grounded(gen_m, floor)
     out = _concat(seed60, rig.from_model(gen_m))
-    return SeedGeneration(out, n_seed, gen_m, rig)
+    return SeedGeneration(out, n_seed, gen_m, rig, searched)
+
+
+def _on_user_body(generated: Motion, size: float, on_body, rig: ModelRig) -> Motion:
+    """Generated frames (model joints, at the scale the network saw) at the seed's size, back on
+    the seed's own body where they were generated on another (``on_body``), as the file can show them."""
+    m = generated.scaled(1 / size)
+    if on_body is not None:
+        m = retarget_to(m, rig.skeleton)
+    return rig.expressible(m)
 
 
 def seed_features(seen: Motion, fps: float):

@@ -25,3 +25,13 @@ SAMPLING_TEMPERATURE = 0.5
 # mean z stood it up (+5.6); "type", that prior (docs/experiments.md, "Why a generated sneak stands up")
 Z_SOURCE = "seed"
 Z_SOURCES = ("seed", "type")
+
+# z after the seed searched for the code that keeps the seed's posture (mocapviz.tasks.posture_search):
+# Z_SEARCH candidates a round (0 or 1: the seed's z as read), each run Z_SEARCH_SECONDS with the mean
+# output; round 1 draws around the seed's z with the type prior's spread times Z_SEARCH_SPREADS[0],
+# round 2 around round 1's best at Z_SEARCH_SPREADS[1]. Why: with the seed's z alone the held-out HDM05
+# jog on a Mixamo A-pose skeleton stood 1.07x the seed's root height (docs/experiments.md, "A search
+# for the z that keeps the posture", says what each round bought)
+Z_SEARCH = 32
+Z_SEARCH_SECONDS = 8.0
+Z_SEARCH_SPREADS = (2.0, 0.5)
