@@ -46,7 +46,7 @@ from mocapviz.features.motion_types import one_hot
 from mocapviz.features.phase import LEFT_FOOT, RIGHT_FOOT, local_phase, phase_signal
 from mocapviz.ik import foot_joints
 from mocapviz.tasks.generate import Generator
-from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE, Z_SOURCE
+from mocapviz.tasks.generation_defaults import GENERATION_MODEL, PACE, SAMPLING_TEMPERATURE, Z_SEARCH, Z_SOURCE
 from mocapviz.tasks.generation_quality import (QUALITY_KEYS, SEED_FRAMES, TypeBanks, generation_quality,
                                                locomotion_seeds, moves_like_real, pose_distance, real_pose_distance,
                                                real_reference)
@@ -94,6 +94,10 @@ PAPER_MODEL = "ccnet_paper"
 # In generation, the `generate` command holds the speed of the plan the seed ended with
 # (`pace`), takes $z$ from the seed's own frames (the posterior's mean over them, while the motion
 # type is the seed's: `z_source`) and samples at a lowered temperature; the defaults are printed below.
+# The `generate` command goes one step further for a user's file: it tries codes around the
+# seed's $z$ and keeps the one whose 8 s run holds the seed's root height and lean best
+# (`mocapviz.tasks.posture_search`, docs/your_own_file.md); the measurements here are the
+# network's own output from the seed's $z$, without that search.
 
 # %%
 gen_model, gen_norm, gen_meta = zoo.load(GENERATION_MODEL)
@@ -104,7 +108,8 @@ print(pd.DataFrame({name: [getattr(m.cfg, k) for k in keys] for name, m in
                     ((GENERATION_MODEL, gen_model), (PAPER_MODEL, paper_model))}, index=list(keys)).to_string())
 print(f"{GENERATION_MODEL}: trained with body_scale {MODELS[GENERATION_MODEL].body_scale} (config "
       f"{RECIPES[GENERATION_MODEL][0]!r}), type prior {'fitted' if getattr(gen_model, 'type_prior', None) is not None else 'missing'}; "
-      f"generate defaults: pace {PACE!r}, z from {Z_SOURCE!r}, sampling temperature {SAMPLING_TEMPERATURE}")
+      f"generate defaults: pace {PACE!r}, z from {Z_SOURCE!r}, sampling temperature {SAMPLING_TEMPERATURE}; "
+      f"the generate command also searches {Z_SEARCH} codes a round around the seed's z (not used below)")
 
 # %% [markdown]
 # ## 2 · Generation for three bodies
