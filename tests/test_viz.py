@@ -134,6 +134,22 @@ def test_ground_track_projects_root(walk):
     assert abs(floor - geo.lowest_point(walk).min()) < 0.02
 
 
+def test_body_track_of_a_file_whose_root_stays_put():
+    """Bandai's files keep joint_Root at the origin and translate the hips: the track is the
+    hips', and a clip whose root moves keeps the root's."""
+    from mocapviz.io.bvh import read_bvh
+    m = read_bvh(DATA / "bandai/dataset-2/dataset-2_walk_normal_019.bvh")[:240]
+    assert np.ptp(m.root_positions, axis=0).max() == 0.0
+    hips = m.positions()[:, m.skeleton.index("Hips")]
+    np.testing.assert_allclose(geo.body_root_positions(m), hips)
+    assert np.linalg.norm(hips[-1, [0, 2]] - hips[0, [0, 2]]) > 1.0  # it walks away from the origin
+    assert geo.travel_direction(m) @ (hips[-1] - hips[0]) / np.linalg.norm(hips[-1] - hips[0]) == pytest.approx(1, abs=0.05)
+
+
+def test_body_track_is_the_root_when_the_root_moves(walk):
+    np.testing.assert_array_equal(geo.body_root_positions(walk), walk.root_positions)
+
+
 def test_joint_tracks_are_the_named_joints_positions(walk):
     pos = walk.positions()
     tracks = geo.joint_tracks(walk, ["Hips", "RightHand"])
@@ -262,6 +278,17 @@ def test_frame_strip(walk, tmp_path):
     assert (tmp_path / "s.png").stat().st_size > 1_000
     panels = [strip[:, i * 83:i * 83 + 80] for i in range(3)]
     assert all((pn.min(axis=-1) < 150).sum() > 30 for pn in panels)  # a dark body in each panel
+
+
+def test_frame_strip_follows_a_body_whose_root_stays_put(tmp_path):
+    """A Bandai walk (joint_Root at the origin, the hips translated): the camera follows the
+    hips, so the walker is as large in the last panel as in the first (it used to stay at the
+    origin while the body walked 4 m away and shrank)."""
+    from mocapviz.io.bvh import read_bvh
+    m = read_bvh(DATA / "bandai/dataset-2/dataset-2_walk_normal_019.bvh")[:360]
+    strip = scene.frame_strip(m, tmp_path / "s.png", n=3, panel_size=(80, 120))
+    dark = [int((pn.min(axis=-1) < 150).sum()) for pn in _panels(strip, 3, 80)]
+    assert min(dark) > 0.6 * max(dark), dark
 
 
 # ------------------------------------------------------------------ CCNet application renders (Figs. 4-7)

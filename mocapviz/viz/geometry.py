@@ -164,16 +164,29 @@ def floor_height(motion: Motion, percentile: float = 1.0) -> float:
     return float(np.percentile(lowest_point(motion), percentile))
 
 
+def body_root_positions(motion: Motion) -> np.ndarray:
+    """(F, 3) world positions of the joint that carries the body: the root, unless the root stays
+    put over the whole clip while a joint below it moves (Bandai's files keep ``joint_Root`` at
+    the origin and put the translation on the hips); then the first such joint in tree order."""
+    root = np.asarray(motion.root_positions, dtype=np.float64)
+    if len(root) < 2 or np.ptp(root, axis=0).max() > 1e-6:
+        return root
+    pos = motion.positions()
+    moving = np.flatnonzero(np.ptp(pos, axis=0).max(axis=-1) > 1e-6)
+    return root if len(moving) == 0 else pos[:, moving[0]]
+
+
 def ground_track(motion: Motion, floor: float | None = None) -> np.ndarray:
-    """The root trajectory (F, 3) projected onto the ground plane y = ``floor``."""
-    track = np.array(motion.root_positions, dtype=np.float64)
+    """The body's trajectory (F, 3; :func:`body_root_positions`) projected onto the ground plane y = ``floor``."""
+    track = body_root_positions(motion).copy()
     track[:, 1] = floor_height(motion) if floor is None else floor
     return track
 
 
 def travel_direction(motion: Motion) -> np.ndarray:
-    """Unit horizontal direction of the root's main travel (principal axis), +X if none."""
-    xz = motion.root_positions[:, [0, 2]]
+    """Unit horizontal direction of the body's main travel (principal axis of
+    :func:`body_root_positions`), +X if none."""
+    xz = body_root_positions(motion)[:, [0, 2]]
     xz = xz - xz.mean(axis=0)
     if len(xz) < 2 or np.abs(xz).max() < 1e-3:
         return np.array([1.0, 0.0, 0.0])

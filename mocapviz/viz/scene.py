@@ -191,6 +191,7 @@ class ClipScene:
     def __init__(self, motion: Motion, color: str = "#4c72b0", window_size=WINDOW_SIZE,
                  follow: bool = False, show_track: bool = True, label: str | None = None):
         self.motion = motion
+        self.body_track = geo.body_root_positions(motion)  # what follow=True keeps in view
         self.segments = geo.all_segments(motion)  # (F, S, 2, 3)
         self.floor = geo.floor_height(motion)
         self.color = color
@@ -235,7 +236,7 @@ class ClipScene:
         else:
             self.actor.mapper.dataset.copy_from(mesh)
         if self.follow:
-            self._aim(self.motion.root_positions[i])
+            self._aim(self.body_track[i])
         return self.p
 
     def image(self, i: int) -> np.ndarray:
