@@ -2,8 +2,8 @@
 
     .venv/bin/python benchmarks/bench_generate_files.py [--model M] [--seconds 60] [--modes mean,sampled]
         [--temperature 0.5] [--pace seed|network] [--z-source seed|type] [--body auto|own|training]
-        [--no-ground] [--diagnose]
-        [--keep DIR] [--only NAME,...] [FILE.bvh:TYPE ...]
+        [--no-ground] [--z-search K] [--diagnose]
+        [--keep DIR] [--only NAME,...] [--conventions] [FILE.bvh:TYPE ...]
 
 Seeds far from the training bodies, none of them a training clip, built at run time in a
 temporary folder (``--keep DIR`` keeps them) and labelled by what they are:
@@ -17,6 +17,12 @@ temporary folder (``--keep DIR`` keeps them) and labelled by what they are:
   leg length. The motion is held out of training: Bandai test-split takes and the held-out
   HDM05 subject ``tr``'s jog;
 - the held-out HDM05 subject ``tr``'s own clips (ASF/AMC, its own VICON skeleton).
+
+``--conventions`` measures instead one Bandai test walk retargeted onto each of the 17
+exporter conventions the mapping tests write (``tests/fixtures/conventions.py``: Mixamo,
+CMU MotionBuilder and 3ds Max, Xsens, Axis Neuron, Rokoko, Rigify, Unreal, Unity, HumanIK,
+HDM05, Bandai, DAZ, OptiTrack, a file without side names; one body, so these differ in names,
+nesting and rest pose, not in proportions).
 
 Each is continued as ``mocapviz generate --seed FILE --type TYPE --seconds 60`` would
 (:func:`mocapviz.tasks.generate_bvh.generate_from_seed` with the command's defaults), mean and
@@ -53,6 +59,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
 import warnings
@@ -74,6 +81,7 @@ from mocapviz.training.checkpoint import load_checkpoint
 from mocapviz.zoo import find_checkpoint
 
 FIXTURES = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "skeletons"
+CONVENTION_SOURCE = "dataset-2_walk_normal_019"  # a test-split Bandai walk, for --conventions
 BARS = dict(speed=(0.5, 2.0), height=(0.95, 1.05), activity=(0.5, 2.0))  # lean: per motion type, from the data
 LEAN_PERCENTILES = (5, 95)
 
@@ -109,14 +117,13 @@ SEEDS = (
 )
 
 
-def retargeted_seed(source: Motion, fixture: Path, convention: str, fps: float, out: Path) -> Path:
-    """``source`` (a motion on the model's joints, CMU names) retargeted onto the hand-written
-    skeleton ``fixture`` (:func:`mocapviz.bodies.retarget.retarget`, the source first scaled to
-    its leg length), written as BVH (the fixture's channels, cm) at ``fps``."""
+def retargeted_seed(source: Motion, target: Motion, table: dict, fps: float, out: Path) -> Path:
+    """``source`` (a motion on the model's joints, CMU names) retargeted onto ``target``'s
+    skeleton (:func:`mocapviz.bodies.retarget.retarget` after scaling the source to its leg
+    length; ``table``: target joint -> the CMU name it is matched by), written as BVH (the
+    target's channels, cm, Y up) at ``fps``."""
     from mocapviz.bodies.retarget import retarget  # imports the body model: only here
 
-    target = read_bvh(fixture)
-    table = TO_CMU[convention]
     on_cmu_names = target.skeleton.renamed(table)
     scaled = source.scaled(leg_length(on_cmu_names) / leg_length(source.skeleton))
     with warnings.catch_warnings():  # the source's clavicles move: retarget holds them (it says so)
@@ -124,7 +131,7 @@ def retargeted_seed(source: Motion, fixture: Path, convention: str, fps: float, 
         moved = retarget(scaled, on_cmu_names)
     motion = Motion(target.skeleton, moved.rotations, moved.root_positions, moved.fps, name=out.stem,
                     meta={"format": "bvh", "length_unit": 0.01, "channels": target.meta["channels"],
-                          "root_offset": target.meta["root_offset"]})
+                          "root_offset": target.meta.get("root_offset", target.skeleton.offsets[0])})
     write_bvh(motion.resample(fps), out)
     return out
 
@@ -138,11 +145,30 @@ def build_seeds(ds, folder: Path) -> list[dict]:
             asf = path.parent / f"HDM_{path.parent.name}.asf"
             what = f"real clip of the held-out HDM05 subject ({path.name})"
         else:
-            path, asf = retargeted_seed(ds.clip_motion(ds.clip_row(source)), FIXTURES / fixture[0], fixture[1], fps,
-                                        folder / f"{name}.bvh"), None
+            path, asf = retargeted_seed(ds.clip_motion(ds.clip_row(source)), read_bvh(FIXTURES / fixture[0]),
+                                        TO_CMU[fixture[1]], fps, folder / f"{name}.bvh"), None
             split = ds.clips.split.values[ds.clip_row(source)]
             what = f"{source} ({split} split) retargeted onto {fixture[0]}, {fps} fps"
         out.append(dict(name=name, path=str(path), asf=None if asf is None else str(asf), type=motion_type, what=what))
+    return out
+
+
+def convention_seeds(ds, folder: Path, source: str = CONVENTION_SOURCE, fps: float = 60.0) -> list[dict]:
+    """One seed per exporter convention of ``tests/fixtures/conventions.py`` (17 hand-written
+    skeletons: names, nesting, extra and missing joints, A- or T-pose; Z-up ones written Y up
+    here), each ``source`` (a test-split Bandai walk) retargeted onto it, matched by the CCNet
+    joint a person would give each joint."""
+    sys.path.insert(0, str(FIXTURES.parents[1]))  # tests/: the fixtures package
+    from fixtures.conventions import CONVENTIONS, bvh_text
+
+    motion, out = ds.clip_motion(ds.clip_row(source)), []
+    for name, build in CONVENTIONS.items():
+        skeleton, expected = build()
+        target = read_bvh(f"{name}.bvh", text=bvh_text(skeleton), length_unit=0.01, up="z" if "z_up" in name else "y")
+        table = {joint: ccnet for joint, ccnet in expected.items() if ccnet}
+        path = retargeted_seed(motion, target, table, fps, folder / f"{name}.bvh")
+        out.append(dict(name=name, path=str(path), asf=None, type="walk",
+                        what=f"{source} (test split) retargeted onto the {name} convention, {fps:g} fps"))
     return out
 
 
@@ -310,6 +336,8 @@ def main(argv=None) -> dict:
     p.add_argument("--diagnose", action="store_true", help="first print why a Mixamo body shuffled bent over")
     p.add_argument("--keep", help="write the built seeds here (default: a temporary folder)")
     p.add_argument("--only", help="comma-separated seed names to run")
+    p.add_argument("--conventions", action="store_true", help="instead of the built seeds: a Bandai test walk on each "
+                   "of the 17 exporter conventions of tests/fixtures/conventions.py")
     a = p.parse_args(argv)
     torch.set_num_threads(1)
     model, norm, meta = load_checkpoint(find_checkpoint(a.model))
@@ -325,6 +353,8 @@ def main(argv=None) -> dict:
         if a.files:
             seeds = [dict(name=Path(f.rsplit(":", 1)[0]).stem, path=f.rsplit(":", 1)[0], asf=None, type=f.rsplit(":", 1)[1],
                           what="a file given") for f in a.files]
+        elif a.conventions:
+            seeds = convention_seeds(ds, folder)
         else:
             seeds = build_seeds(ds, folder)
         if a.only:

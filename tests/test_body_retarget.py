@@ -85,3 +85,20 @@ def test_ankles_follow_the_source_with_ik(body, clips):
     _, g_ik = forward_kinematics(with_ik.rotations, with_ik.root_positions, tgt.offsets, tgt.parents, True)
     _, g_0 = forward_kinematics(without.rotations, without.root_positions, tgt.offsets, tgt.parents, True)
     np.testing.assert_allclose(g_ik[:, tgt.index("LeftFoot")], g_0[:, tgt.index("LeftFoot")], atol=1e-9)
+
+
+def test_a_reference_root_above_the_hips_stays_at_rest(clips):
+    """A target with a root the source lacks (Unreal's ``root``, HumanIK's ``Reference``) above
+    the hips: the reference stays at rest and every other joint lands where it lands on the same
+    skeleton without it. Its global rotation used to be read from an unfilled array (any
+    matrix, often not a rotation)."""
+    from mocapviz.skeleton import Skeleton
+
+    clip = clips["07_01"][:30]
+    sk = clip.skeleton
+    with_ref = Skeleton(("Reference",) + tuple(sk.names), np.concatenate([[-1], np.where(sk.parents >= 0, sk.parents + 1, 0)]),
+                        np.concatenate([np.zeros((1, 3)), sk.offsets]), tuple((j + 1, off) for j, off in sk.end_sites))
+    plain, ref = retarget(clip, sk), retarget(clip, with_ref)
+    np.testing.assert_allclose(ref.rotations[:, 0], np.tile(np.eye(3), (30, 1, 1)), atol=1e-9)
+    np.testing.assert_allclose(np.linalg.det(ref.rotations), 1.0, atol=1e-9)
+    np.testing.assert_allclose(ref.positions()[:, 1:], plain.positions(), atol=1e-9)

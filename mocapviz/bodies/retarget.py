@@ -142,10 +142,13 @@ def retarget(motion: Motion, target: Skeleton, Q: np.ndarray | None = None, ik_a
     idx = np.array([src.index(n) if n in src.names else -1 for n in target.names])
     glob = np.empty((motion.n_frames, target.n_joints, 3, 3))
     for j in range(target.n_joints):
+        p = target.parents[j]
         if idx[j] >= 0 and target.names[j] not in STATIC_JOINTS:
             glob[:, j] = src_glob[:, idx[j]] @ Q[j]
-        else:
-            glob[:, j] = glob[:, target.parents[j]] @ (Q[target.parents[j]].T @ Q[j])
+        elif p >= 0:
+            glob[:, j] = glob[:, p] @ (Q[p].T @ Q[j])
+        else:  # a reference root the source lacks (Unreal's root, HumanIK's Reference): at rest
+            glob[:, j] = Q[j]
     local = global_to_local(glob, target.parents)
     zero_root = forward_kinematics(local, np.zeros((motion.n_frames, 3)), target.offsets, target.parents)
     root = hip_midpoint(src, src_pos) - hip_midpoint(target, zero_root)
