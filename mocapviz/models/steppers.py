@@ -253,6 +253,10 @@ class NumpyStepper:
 
     def trunk_step(self, x: np.ndarray, traj: np.ndarray) -> np.ndarray:
         """Advance one frame; returns the skip sum (B, S) before the decoder's ReLU."""
+        # contiguous float32 whatever the caller holds (a row of a (B, T, n) array, a strided
+        # view): numpy picks its matmul kernel by memory layout, and with numpy 2.4.6 the kernels
+        # round differently (1e-7), so run() and the step API would part in the last digits
+        x, traj = np.ascontiguousarray(x, np.float32), np.ascontiguousarray(traj, np.float32)
         nb, t, r = len(self._blocks), self.t, self.hist.shape[0]
         views = self._views[t % r]                 # block inputs of this frame are written here
         # the past first: with d_i = R, block i's past input sits where this frame's is written
