@@ -2,11 +2,12 @@
 
 A latent CCNet (``ccnet_generate``) reads z from the seed (``Generator(z_source="seed")``), but
 run free it settles into its motion type's usual posture within a second: every HDM05
-``jogLeftCircle`` seed, leaning 7-21 degrees, jogged at 8-11 (docs/experiments.md, "Why a
-generated sneak stands up"). Teacher-forced, z and the input frames say the same thing, so the
-network never learnt to hold a posture from z alone; posture controls trained for it were weak
-(runs P1-P3). Some codes near the seed's do hold it, and a rollout is cheap (64 characters for
-8 s take about 5 s on one CPU thread), so the generator looks for one.
+``jogLeftCircle`` seed, leaning 7-21 degrees, jogged at 8-9 degrees with the type's z, and the
+seed's own z moved that by -6 to +3 (docs/experiments.md, "Why a generated sneak stands up").
+Teacher-forced, z and the input frames say the same thing, so the network never learnt to hold a
+posture from z alone; posture controls trained for it were weak (runs P1-P3). Some codes near the
+seed's do hold it, and rollouts are cheap (two rounds of 32 characters for 8 s take about 5 s on
+one CPU thread), so the generator looks for one.
 
 :func:`search_seed_z`: ``candidates`` codes, the seed's z plus shifts drawn from the motion
 type's prior spread (its Cholesky factor) times a ``spread`` (the first candidate is the seed's z
@@ -24,6 +25,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from tqdm.auto import tqdm
 
 from mocapviz import metrics
 from mocapviz.features.ccnet import FPS
@@ -113,8 +115,6 @@ def search_seed_z(model, normaliser, seed_x: np.ndarray, skel: np.ndarray, types
     type_index = int(np.argmax(types))
     best = np.zeros(model.cfg.latent, np.float32)
     all_shifts, postures = [], []
-    from tqdm.auto import tqdm
-
     for r, spread in enumerate(tqdm(spreads, desc=f"z search ({candidates} codes a round)", disable=not progress)):
         shifts = best + candidate_shifts(prior, type_index, candidates, spread, rng_seed + r)
         postures += _rollout_postures(model, normaliser, seed_x, skel, types, seed_traj, skeleton, shifts, seconds,

@@ -166,14 +166,14 @@ def floor_height(motion: Motion, percentile: float = 1.0) -> float:
 
 def body_root_positions(motion: Motion) -> np.ndarray:
     """(F, 3) world positions of the joint that carries the body: the root, unless the root stays
-    put over the whole clip while a joint below it moves (Bandai's files keep ``joint_Root`` at
-    the origin and put the translation on the hips); then the first such joint in tree order."""
+    put over the whole clip while a child of it moves (Bandai's files keep ``joint_Root`` at the
+    origin and put the translation on the hips); then the first such child."""
     root = np.asarray(motion.root_positions, dtype=np.float64)
     if len(root) < 2 or np.ptp(root, axis=0).max() > 1e-6:
         return root
     pos = motion.positions()
-    moving = np.flatnonzero(np.ptp(pos, axis=0).max(axis=-1) > 1e-6)
-    return root if len(moving) == 0 else pos[:, moving[0]]
+    moving = [c for c in motion.skeleton.children(0) if np.ptp(pos[:, c], axis=0).max() > 1e-6]
+    return root if not moving else pos[:, moving[0]]
 
 
 def ground_track(motion: Motion, floor: float | None = None) -> np.ndarray:
