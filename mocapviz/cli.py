@@ -109,6 +109,8 @@ def generate(args) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     write_bvh(result.motion, out)
     m = result.motion
+    if result.z_search is not None:
+        tqdm.write(result.z_search.summary())
     tqdm.write(f"wrote {out}: {m.n_frames} frames at {m.fps:g} fps ({result.n_seed} seed + "
                f"{m.n_frames - result.n_seed} generated), {m.skeleton.n_joints} joints"
                + ("; skipped a leading T-pose frame of the seed" if seed.meta.get("tpose_frames") else ""))

@@ -379,3 +379,15 @@ def test_pace_option_holds_or_follows_the_plan(data_dir, tmp_path, capsys):
     assert not np.array_equal(held.positions()[120:], own.positions()[120:])  # (a walk: by millimetres in 1 s)
     with pytest.raises(SystemExit):
         main(["generate", "--seed", "x.bvh", "--out", "y.bvh", "--pace", "user"])
+
+
+def test_the_command_says_what_the_posture_search_kept(data_dir, tmp_path, capsys, monkeypatch):
+    """With the default model (a latent one) and z from the seed, the command prints the search's
+    one-line summary before the file it wrote; --z-search 0 prints none."""
+    monkeypatch.chdir(ROOT)
+    base = ["generate", "--seed", seed_paths(data_dir, "cmu")[0], "--seconds", "1", "--out", str(tmp_path / "s.bvh")]
+    assert main(base) == 0
+    out = capsys.readouterr().out
+    assert "z searched over 64 codes: kept " in out and out.index("z searched") < out.index("wrote ")
+    assert main(base + ["--z-search", "0"]) == 0
+    assert "z searched" not in capsys.readouterr().out

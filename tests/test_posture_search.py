@@ -12,8 +12,8 @@ from data_prep import zoo as repo_zoo
 from mocapviz.motion import Motion
 from mocapviz.tasks.generate import Generator
 from mocapviz.tasks.generation_defaults import GENERATION_MODEL
-from mocapviz.tasks.posture_search import (LEAN_TOLERANCE, Posture, candidate_shifts, posture_cost, posture_of,
-                                           search_seed_z)
+from mocapviz.tasks.posture_search import (LEAN_TOLERANCE, Posture, ZSearch, candidate_shifts, posture_cost,
+                                           posture_of, search_seed_z)
 from mocapviz.tasks.rig import known_body
 from mocapviz.training.checkpoint import load_checkpoint
 
@@ -141,3 +141,13 @@ def test_search_picks_the_cheapest_candidate(checkpoint, seed_frames, body):
     assert posture_cost(p, target) == pytest.approx(found.costs[found.chosen], rel=1e-3, abs=1e-4)
     assert search_seed_z(model, norm, seed_x, skel, types, seed_x[:, :12] * np.nan, body, target, candidates=1,
                          seconds=1.0, spreads=(2.0,), pace="seed") is None
+
+
+def test_summary_says_what_was_kept():
+    target = Posture(height=0.9, lean=10.0, speed=1.0, activity=0.5)
+    found = ZSearch(np.zeros(2), 1, np.array([4.0, 0.25]), [Posture(1.0, 0.0, 1.0, 0.5), Posture(0.927, 12.5, 1.1, 0.5)],
+                    target)
+    assert found.summary() == ("z searched over 2 codes: kept code 1 (cost 4.00 with the seed's z, 0.25 kept); in its "
+                               "trial run, root height 1.030x the seed's, lean +12.5 degrees (seed +10.0), pace 1.10 m/s "
+                               "(seed 1.00)")
+    assert "kept the seed's own z" in ZSearch(np.zeros(2), 0, np.array([0.1]), [target], target).summary()

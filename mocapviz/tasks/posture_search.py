@@ -83,6 +83,14 @@ class ZSearch:
     postures: list[Posture]   # every candidate's, over the second half of its rollout
     target: Posture           # the seed's
 
+    def summary(self) -> str:
+        """One line on what the search did (the ``generate`` command prints it)."""
+        p, t = self.postures[self.chosen], self.target
+        kept = "the seed's own z" if self.chosen == 0 else f"code {self.chosen}"
+        return (f"z searched over {len(self.costs)} codes: kept {kept} (cost {self.costs[0]:.2f} with the seed's z, "
+                f"{self.costs[self.chosen]:.2f} kept); in its trial run, root height {p.height / t.height:.3f}x the "
+                f"seed's, lean {p.lean:+.1f} degrees (seed {t.lean:+.1f}), pace {p.speed:.2f} m/s (seed {t.speed:.2f})")
+
 
 def candidate_shifts(type_prior, type_index: int, candidates: int, spread: float, rng_seed: int) -> np.ndarray:
     """(K, L) shifts of the seed's z: 0 first, then draws from N(0, (spread C)(spread C)^T),
