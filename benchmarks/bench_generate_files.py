@@ -76,6 +76,7 @@ from mocapviz.motion import Motion
 from mocapviz.tasks.generate_bvh import BODIES, generate_from_seed, load_seed
 from mocapviz.tasks.generation_defaults import (GENERATION_MODEL, PACE, PACES, SAMPLING_TEMPERATURE, Z_SEARCH, Z_SOURCE,
                                                 Z_SOURCES)
+from mocapviz.tasks.posture_search import posture_of
 from mocapviz.tasks.rig import leg_length, retarget_to
 from mocapviz.training.checkpoint import load_checkpoint
 from mocapviz.zoo import find_checkpoint
@@ -202,21 +203,17 @@ def lean_spread(ds, motion_type: str) -> tuple[float, float]:
 
 def body_numbers(model_motion: Motion, n_seed: int, start: float, stop: float) -> dict:
     """Seed frames [0, n_seed) against generated seconds [start, stop) of a motion on the model's
-    joints: the four measures of the module docstring, both sides."""
+    joints: the four measures of the module docstring (:func:`posture_of`, both heights above the
+    seed's floor), both sides."""
     fps, pos = model_motion.fps, model_motion.positions()
-    names = model_motion.skeleton.names
     seed = slice(0, n_seed)
     gen = slice(n_seed + int(round(start * fps)), n_seed + int(round(stop * fps)))
-    root = model_motion.root_positions
     lowest = pos[:, :, 1].min(axis=1)
     floor = float(np.median(lowest[seed]))
-    local = metrics.local_positions(pos, model_motion.skeleton)
-    forward = metrics.forward_lean(pos, model_motion.skeleton)
-    s = {k: {} for k in ("seed", "gen")}
+    s = {}
     for key, sl in (("seed", seed), ("gen", gen)):
-        s[key] = dict(speed=metrics.root_speed(root[sl], fps), height=float((root[sl, 1] - floor).mean()),
-                      lean=float(forward[sl].mean()), vertical=float(lean_degrees(pos[sl], names).mean()),
-                      activity=metrics.activity(local[sl], fps))
+        s[key] = dict(vars(posture_of(model_motion[sl], floor)),
+                      vertical=float(lean_degrees(pos[sl], model_motion.skeleton.names).mean()))
     return dict(seed=s["seed"], gen=s["gen"], speed=s["gen"]["speed"] / s["seed"]["speed"],
                 height=s["gen"]["height"] / s["seed"]["height"], lean=s["gen"]["lean"],
                 vertical=s["gen"]["vertical"], activity=s["gen"]["activity"] / s["seed"]["activity"],

@@ -129,7 +129,8 @@ phase1, meta1 = load_cvae4d("cvae4d_phase1")
 phase2, meta2 = load_cvae4d("cvae4d_phase2")
 log1, log2 = (pd.read_csv(find_checkpoint(n).with_name(f"{n}_losses.csv")) for n in ("cvae4d_phase1", "cvae4d_phase2"))
 print(phase2)
-print(f"{count_parameters(phase2):,} parameters; latent {phase2.cfg.latent}, hidden {phase2.cfg.hidden}")
+print(f"{count_parameters(phase2):,} parameters; latent {phase2.cfg.latent}, hidden {phase2.cfg.hidden}; "
+      f"checkpoint {find_checkpoint('cvae4d_phase2').stat().st_size / 1e6:.1f} MB (float16)")
 for name, zoo_name, meta in (("phase 1", "cvae4d_phase1", meta1), ("phase 2", "cvae4d_phase2", meta2)):
     tc = meta["train_config"]
     run, kept = cvae4d_epochs(zoo_name)
@@ -217,7 +218,7 @@ display(Image(filename=str(fig_dir / "cvae4d_fig_reconstructions.png")))
 #
 # The paper trains on 13 121 AMASS cycles of hundreds of subjects (5000 + 200 epochs on a GPU);
 # we train on the training cycles of notebook 10's full dataset (the count is printed above), on
-# one CPU thread, for the epochs printed above, at hidden widths (256, 256) and latent 64 (a
-# 13.7 MB float16 checkpoint; printed above). The gap between the solid (training) and dashed
+# one CPU thread, for the epochs printed above, at the hidden widths and latent size printed
+# above (and the checkpoint's size). The gap between the solid (training) and dashed
 # (held-out) curves above is what these short runs generalise. Notebook 12 compares both phases
 # with the PCA baseline on every test set (`results/cvae4d_reconstruction.csv`).

@@ -55,10 +55,13 @@ class Posture:
     activity: float  # mean joint speed in the root's heading frame (metrics.activity), m/s
 
 
-def posture_of(motion: Motion) -> Posture:
-    """The :class:`Posture` of every frame of ``motion`` (model joints: hips, neck and shoulders named)."""
+def posture_of(motion: Motion, floor: float | None = None) -> Posture:
+    """The :class:`Posture` of every frame of ``motion`` (model joints: hips, neck and shoulders
+    named); the root height above ``floor`` (m; default: the motion's own, the median over its
+    frames of the lowest joint)."""
     pos = motion.positions()
-    floor = float(np.median(pos[:, :, 1].min(axis=1)))
+    if floor is None:
+        floor = float(np.median(pos[:, :, 1].min(axis=1)))
     return Posture(height=float((motion.root_positions[:, 1] - floor).mean()),
                    lean=float(metrics.forward_lean(pos, motion.skeleton).mean()),
                    speed=metrics.root_speed(motion.root_positions, motion.fps),
